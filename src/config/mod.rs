@@ -1,0 +1,1 @@
+//! Typed, validated case and sweep specifications.

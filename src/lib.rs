@@ -1,0 +1,14 @@
+//! xpflow: XFEM simulation of rigid particles in viscoelastic fluids, with parameter sweeps.
+//!
+//! Module layering (imports point downward), see `DESIGN.md`:
+//! `config → geometry → mesh → fem → xfem → rheology → solver → particles → observe → sweep/store → cli`.
+
+pub mod cli;
+pub mod config;
+pub mod fem;
+pub mod mesh;
+pub mod rheology;
+pub mod solver;
+pub mod store;
+pub mod sweep;
+pub mod xfem;

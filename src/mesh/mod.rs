@@ -1,0 +1,1 @@
+//! Structured quadrilateral meshes with Q2 nodes (rectangle, annulus), graded spacing, periodicity.

@@ -1,0 +1,1 @@
+//! Constitutive models in log-conformation form (Giesekus, Oldroyd-B, UCM).

@@ -1,0 +1,1 @@
+//! Weak forms and solvers.

@@ -1,0 +1,1 @@
+//! Results store: SQLite tables and HDF5 field snapshots.

@@ -1,0 +1,1 @@
+//! Sweep expansion, case ids, scheduling, resume and progress.

@@ -1,0 +1,1 @@
+//! Level sets, element classification and cut-cell quadrature (one-sided XFEM).
