@@ -6,7 +6,9 @@
 pub mod cli;
 pub mod config;
 pub mod fem;
+pub mod geometry;
 pub mod mesh;
+pub mod observe;
 pub mod rheology;
 pub mod solver;
 pub mod store;

@@ -1,0 +1,1 @@
+//! Sweep, query and status subcommands.

@@ -1,0 +1,3 @@
+//! Problem set-ups and initial particle layouts.
+
+pub mod layout;

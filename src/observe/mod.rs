@@ -1,0 +1,1 @@
+//! Observables and outcome classification from trajectories.
