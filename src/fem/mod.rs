@@ -1,3 +1,6 @@
-//! Finite elements: reference elements, quadrature, dof maps, sparse assembly, linear solvers.
+//! Finite elements: reference elements, quadrature, sparse assembly, linear solvers.
 
+pub mod element;
+pub mod linsolve;
 pub mod quadrature;
+pub mod sparse;

@@ -1,1 +1,7 @@
 //! Structured quadrilateral meshes with Q2 nodes (rectangle, annulus), graded spacing, periodicity.
+
+pub mod axis;
+pub mod structured;
+
+pub use axis::Axis;
+pub use structured::{Mesh, Shape, Side};

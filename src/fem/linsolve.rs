@@ -1,0 +1,334 @@
+//! Sparse direct solvers with the symbolic analysis done once per pattern and reused for every
+//! numeric factorization (faer, single-threaded: on 2 cores we parallelize across cases instead).
+//!
+//! Two kinds:
+//! - [`SolverKind::Lblt`]: symmetric indefinite LBLᵀ (supernodal, Bunch–Kaufman pivoting inside
+//!   supernodes) for symmetric systems — the Stokes/DEVSS-G saddle-point matrix assembled
+//!   symmetrically. About 10× less memory and time than LU on our patterns (see docs/performance.md).
+//! - [`SolverKind::Lu`]: general sparse LU with partial pivoting, for non-symmetric systems
+//!   (SUPG transport) and as a cross-check.
+
+use dyn_stack::{MemBuffer, MemStack, StackReq};
+use faer::linalg::cholesky::lblt::factor::LbltParams;
+use faer::perm::PermRef;
+use faer::sparse::linalg::cholesky::{
+    factorize_symbolic_cholesky, CholeskySymbolicParams, IntranodeLbltRef, SymbolicCholesky,
+    SymmetricOrdering,
+};
+use faer::sparse::linalg::lu::{
+    factorize_symbolic_lu, LuRef, LuSymbolicParams, NumericLu, SymbolicLu,
+};
+use faer::sparse::linalg::SupernodalThreshold;
+use faer::{Conj, MatMut, Par, Side, Spec};
+
+use super::sparse::SparseMatrix;
+
+/// Which factorization to use.
+#[derive(Debug, Clone, Copy, PartialEq, Eq)]
+pub enum SolverKind {
+    /// Symmetric indefinite LBLᵀ (the matrix must be symmetric; the lower triangle is read).
+    Lblt,
+    /// General LU with partial pivoting.
+    Lu,
+}
+
+/// Errors of the direct solvers.
+#[derive(Debug, thiserror::Error)]
+pub enum SolveError {
+    /// The symbolic analysis failed (out of memory or index overflow).
+    #[error("symbolic factorization failed: {0}")]
+    Symbolic(String),
+    /// The numeric factorization failed (singular matrix).
+    #[error("numeric factorization failed: {0}")]
+    Numeric(String),
+    /// The solution is not finite or the residual is too large.
+    #[error("linear solve inaccurate: relative residual {residual:.3e}")]
+    Inaccurate {
+        /// ‖b − A x‖ / ‖b‖.
+        residual: f64,
+    },
+    /// `solve` was called before `factor`.
+    #[error("solve called before a numeric factorization")]
+    NotFactored,
+}
+
+enum Backend {
+    Lblt {
+        symbolic: SymbolicCholesky<usize>,
+        l_values: Vec<f64>,
+        subdiag: Vec<f64>,
+        perm_fwd: Vec<usize>,
+        perm_inv: Vec<usize>,
+    },
+    Lu {
+        symbolic: SymbolicLu<usize>,
+        numeric: NumericLu<usize, f64>,
+    },
+}
+
+/// A direct solver bound to one sparsity pattern.
+pub struct DirectSolver {
+    backend: Backend,
+    buffer: MemBuffer,
+    factored: bool,
+    n: usize,
+}
+
+impl std::fmt::Debug for DirectSolver {
+    fn fmt(&self, f: &mut std::fmt::Formatter<'_>) -> std::fmt::Result {
+        f.debug_struct("DirectSolver")
+            .field("kind", &self.kind())
+            .field("n", &self.n)
+            .field("factored", &self.factored)
+            .finish()
+    }
+}
+
+impl DirectSolver {
+    /// Symbolic analysis of the pattern of `a` (fill-reducing ordering, elimination tree,
+    /// supernodes). Done once; every later [`factor`](Self::factor) reuses it.
+    pub fn analyze(a: &SparseMatrix, kind: SolverKind) -> Result<Self, SolveError> {
+        let par = Par::Seq;
+        let n = a.n();
+        let (backend, req) = match kind {
+            SolverKind::Lblt => {
+                let params = CholeskySymbolicParams {
+                    // always supernodal: the simplicial variant does not pivot
+                    supernodal_flop_ratio_threshold: SupernodalThreshold::FORCE_SUPERNODAL,
+                    ..Default::default()
+                };
+                let symbolic = factorize_symbolic_cholesky(
+                    a.symbolic(),
+                    Side::Lower,
+                    SymmetricOrdering::Amd,
+                    params,
+                )
+                .map_err(|e| SolveError::Symbolic(format!("{e:?}")))?;
+                let req = StackReq::any_of(&[
+                    symbolic.factorize_numeric_intranode_lblt_scratch::<f64>(
+                        par,
+                        Spec::<LbltParams, f64>::default(),
+                    ),
+                    symbolic.solve_in_place_scratch::<f64>(1, par),
+                ]);
+                let len = symbolic.len_val();
+                (
+                    Backend::Lblt {
+                        symbolic,
+                        l_values: vec![0.0; len],
+                        subdiag: vec![0.0; n],
+                        perm_fwd: vec![0; n],
+                        perm_inv: vec![0; n],
+                    },
+                    req,
+                )
+            }
+            SolverKind::Lu => {
+                let symbolic = factorize_symbolic_lu(a.symbolic(), LuSymbolicParams::default())
+                    .map_err(|e| SolveError::Symbolic(format!("{e:?}")))?;
+                let req = StackReq::any_of(&[
+                    symbolic.factorize_numeric_lu_scratch::<f64>(par, Default::default()),
+                    symbolic.solve_in_place_scratch::<f64>(1, par),
+                ]);
+                (
+                    Backend::Lu {
+                        symbolic,
+                        numeric: NumericLu::new(),
+                    },
+                    req,
+                )
+            }
+        };
+        Ok(Self {
+            backend,
+            buffer: MemBuffer::new(req),
+            factored: false,
+            n,
+        })
+    }
+
+    /// The factorization kind.
+    pub fn kind(&self) -> SolverKind {
+        match self.backend {
+            Backend::Lblt { .. } => SolverKind::Lblt,
+            Backend::Lu { .. } => SolverKind::Lu,
+        }
+    }
+
+    /// Numeric factorization of `a` (same pattern as at [`analyze`](Self::analyze)), reusing the
+    /// symbolic analysis and the factor storage.
+    pub fn factor(&mut self, a: &SparseMatrix) -> Result<(), SolveError> {
+        assert_eq!(
+            a.n(),
+            self.n,
+            "matrix size differs from the analysed pattern"
+        );
+        let stack = MemStack::new(&mut self.buffer);
+        match &mut self.backend {
+            Backend::Lblt {
+                symbolic,
+                l_values,
+                subdiag,
+                perm_fwd,
+                perm_inv,
+            } => {
+                symbolic.factorize_numeric_intranode_lblt(
+                    l_values,
+                    subdiag,
+                    perm_fwd,
+                    perm_inv,
+                    a.as_faer(),
+                    Side::Lower,
+                    Par::Seq,
+                    stack,
+                    Default::default(),
+                );
+                if l_values.iter().any(|v| !v.is_finite()) {
+                    self.factored = false;
+                    return Err(SolveError::Numeric(
+                        "non-finite LBLᵀ factor (singular matrix?)".into(),
+                    ));
+                }
+            }
+            Backend::Lu { symbolic, numeric } => {
+                symbolic
+                    .factorize_numeric_lu(numeric, a.as_faer(), Par::Seq, stack, Default::default())
+                    .map_err(|e| SolveError::Numeric(format!("{e:?}")))?;
+            }
+        }
+        self.factored = true;
+        Ok(())
+    }
+
+    /// Solves A x = b in place (`rhs` holds b on entry and x on exit).
+    pub fn solve_in_place(&mut self, rhs: &mut [f64]) -> Result<(), SolveError> {
+        if !self.factored {
+            return Err(SolveError::NotFactored);
+        }
+        let n = self.n;
+        let stack = MemStack::new(&mut self.buffer);
+        let x = MatMut::from_column_major_slice_mut(rhs, n, 1);
+        match &self.backend {
+            Backend::Lblt {
+                symbolic,
+                l_values,
+                subdiag,
+                perm_fwd,
+                perm_inv,
+            } => {
+                let perm = PermRef::new_checked(perm_fwd, perm_inv, n);
+                IntranodeLbltRef::new(symbolic, l_values, subdiag, perm).solve_in_place_with_conj(
+                    Conj::No,
+                    x,
+                    Par::Seq,
+                    stack,
+                );
+            }
+            Backend::Lu { symbolic, numeric } => {
+                LuRef::new_unchecked(symbolic, numeric).solve_in_place_with_conj(
+                    Conj::No,
+                    x,
+                    Par::Seq,
+                    stack,
+                );
+            }
+        }
+        Ok(())
+    }
+
+    /// Solves and checks the relative residual against `tol`, with one step of iterative
+    /// refinement when the first residual is above it.
+    pub fn solve_checked(
+        &mut self,
+        a: &SparseMatrix,
+        b: &[f64],
+        x: &mut [f64],
+        tol: f64,
+    ) -> Result<f64, SolveError> {
+        x.copy_from_slice(b);
+        self.solve_in_place(x)?;
+        let mut r = vec![0.0; b.len()];
+        let res = residual(a, x, b, &mut r);
+        if res <= tol {
+            return Ok(res);
+        }
+        self.solve_in_place(&mut r)?;
+        x.iter_mut().zip(&r).for_each(|(xi, di)| *xi += di);
+        let res = residual(a, x, b, &mut r);
+        if res.is_finite() && res <= tol {
+            Ok(res)
+        } else {
+            Err(SolveError::Inaccurate { residual: res })
+        }
+    }
+}
+
+/// r = b − A x; returns ‖r‖/‖b‖ (or ‖r‖ if b = 0).
+fn residual(a: &SparseMatrix, x: &[f64], b: &[f64], r: &mut [f64]) -> f64 {
+    a.matvec(x, r);
+    let mut rr = 0.0;
+    let mut bb = 0.0;
+    for i in 0..b.len() {
+        r[i] = b[i] - r[i];
+        rr += r[i] * r[i];
+        bb += b[i] * b[i];
+    }
+    if bb > 0.0 {
+        (rr / bb).sqrt()
+    } else {
+        rr.sqrt()
+    }
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+    use crate::fem::sparse::PatternBuilder;
+
+    /// A small symmetric saddle-point matrix [[A, Bᵀ], [B, 0]] with A = tridiag(−1, 4, −1).
+    fn saddle(scale: f64) -> SparseMatrix {
+        let n = 6;
+        let mut pb = PatternBuilder::new(n + 2);
+        for i in 0..n - 1 {
+            pb.add_group(&[i, i + 1]);
+        }
+        pb.add_coupling(&[n], &[0, 1, 2]);
+        pb.add_coupling(&[n + 1], &[3, 4, 5]);
+        let mut a = pb.build();
+        for i in 0..n {
+            a.add(i, i, 4.0 * scale);
+            if i + 1 < n {
+                a.add(i, i + 1, -scale);
+                a.add(i + 1, i, -scale);
+            }
+        }
+        for (p, cols) in [(n, [0, 1, 2]), (n + 1, [3, 4, 5])] {
+            for c in cols {
+                a.add(p, c, 1.0);
+                a.add(c, p, 1.0);
+            }
+        }
+        a
+    }
+
+    #[test]
+    fn lblt_and_lu_solve_saddle_point_and_refactor() {
+        // residual tolerance: round-off on an 8×8 well-conditioned system
+        const TOL: f64 = 1e-13;
+        for kind in [SolverKind::Lblt, SolverKind::Lu] {
+            let a = saddle(1.0);
+            let mut s = DirectSolver::analyze(&a, kind).unwrap();
+            let b: Vec<f64> = (0..8).map(|i| (i as f64).sin() + 1.0).collect();
+            let mut x = vec![0.0; 8];
+            s.factor(&a).unwrap();
+            assert!(s.solve_checked(&a, &b, &mut x, TOL).unwrap() < TOL);
+            // refactor with new values, same pattern
+            let a2 = saddle(3.0);
+            s.factor(&a2).unwrap();
+            assert!(
+                s.solve_checked(&a2, &b, &mut x, TOL).unwrap() < TOL,
+                "{kind:?}"
+            );
+        }
+    }
+}

@@ -1,0 +1,131 @@
+//! 1D vertex distributions for tensor-product meshes: uniform or graded toward a point.
+
+/// Vertex coordinates of a 1D partition `v[0] < v[1] < … < v[n]` (n elements).
+#[derive(Debug, Clone, PartialEq)]
+pub struct Axis {
+    /// Element vertex coordinates, strictly increasing.
+    pub vertices: Vec<f64>,
+}
+
+impl Axis {
+    /// `n` equal elements on [a, b].
+    ///
+    /// # Panics
+    /// Panics if `n == 0` or `b <= a` (contract: callers validate their specs first).
+    pub fn uniform(a: f64, b: f64, n: usize) -> Self {
+        assert!(n > 0 && b > a, "Axis::uniform needs n > 0 and b > a");
+        Self {
+            vertices: (0..=n).map(|i| a + (b - a) * i as f64 / n as f64).collect(),
+        }
+    }
+
+    /// `n` elements on [a, b], graded smoothly toward `focus` ∈ [a, b] by the map
+    /// x(s) = focus + c·sinh(k (s − s₀)), s ∈ [0, 1]: element sizes grow geometrically-like
+    /// away from `focus`, the ratio of the largest to the smallest element being about cosh(k)
+    /// for a focus at an end. `k = 0` gives the uniform axis.
+    ///
+    /// # Panics
+    /// Panics if `n == 0`, `b <= a`, `k < 0` or `focus` outside [a, b].
+    pub fn graded(a: f64, b: f64, n: usize, focus: f64, k: f64) -> Self {
+        assert!(n > 0 && b > a && k >= 0.0, "Axis::graded: bad arguments");
+        assert!(
+            (a..=b).contains(&focus),
+            "Axis::graded: focus outside [a, b]"
+        );
+        if k < 1e-12 {
+            return Self::uniform(a, b, n);
+        }
+        // Find s0 with (focus − a)/(b − focus) = sinh(k s0)/sinh(k (1 − s0)), by bisection.
+        let f = |s0: f64| (focus - a) * (k * (1.0 - s0)).sinh() - (b - focus) * (k * s0).sinh();
+        let (mut lo, mut hi) = (0.0, 1.0);
+        for _ in 0..200 {
+            let mid = 0.5 * (lo + hi);
+            if f(mid) > 0.0 {
+                lo = mid;
+            } else {
+                hi = mid;
+            }
+        }
+        let s0 = 0.5 * (lo + hi);
+        let c = (b - a) / ((k * (1.0 - s0)).sinh() + (k * s0).sinh());
+        let mut vertices: Vec<f64> = (0..=n)
+            .map(|i| focus + c * (k * (i as f64 / n as f64 - s0)).sinh())
+            .collect();
+        vertices[0] = a;
+        vertices[n] = b;
+        Self { vertices }
+    }
+
+    /// Number of elements.
+    pub fn len(&self) -> usize {
+        self.vertices.len() - 1
+    }
+
+    /// True if the axis has no elements (never, for a constructed axis).
+    pub fn is_empty(&self) -> bool {
+        self.vertices.len() < 2
+    }
+
+    /// Coordinate of Q2 node `i` (even: vertex `i/2`, odd: midpoint of element `i/2`).
+    #[inline]
+    pub fn q2_coord(&self, i: usize) -> f64 {
+        if i % 2 == 0 {
+            self.vertices[i / 2]
+        } else {
+            0.5 * (self.vertices[i / 2] + self.vertices[i / 2 + 1])
+        }
+    }
+
+    /// Smallest element size.
+    pub fn min_size(&self) -> f64 {
+        self.vertices
+            .windows(2)
+            .map(|w| w[1] - w[0])
+            .fold(f64::INFINITY, f64::min)
+    }
+
+    /// Index of the element containing `x` (clamped to the ends).
+    pub fn locate(&self, x: f64) -> usize {
+        let n = self.len();
+        match self
+            .vertices
+            .binary_search_by(|v| v.partial_cmp(&x).unwrap_or(std::cmp::Ordering::Less))
+        {
+            Ok(i) => i.min(n - 1),
+            Err(i) => i.saturating_sub(1).min(n - 1),
+        }
+    }
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    #[test]
+    fn graded_axis_is_monotone_refined_at_focus_and_spans_interval() {
+        let ax = Axis::graded(-15.0, 15.0, 60, 0.0, 3.0);
+        assert_eq!(ax.len(), 60);
+        assert_eq!(ax.vertices[0], -15.0);
+        assert_eq!(ax.vertices[60], 15.0);
+        assert!(ax.vertices.windows(2).all(|w| w[1] > w[0]));
+        let h: Vec<f64> = ax.vertices.windows(2).map(|w| w[1] - w[0]).collect();
+        // symmetric focus: smallest elements in the middle, ratio ≈ cosh(k·1/2)·… > 2
+        assert!(h[30] < h[0] / 2.0);
+        assert!((h[29] - h[30]).abs() < 1e-12, "symmetric about the focus");
+        let end = Axis::graded(1.0, 4.0, 20, 1.0, 2.0);
+        let he: Vec<f64> = end.vertices.windows(2).map(|w| w[1] - w[0]).collect();
+        assert!(he.windows(2).all(|w| w[1] > w[0]));
+        assert!((he[19] / he[0] - 2.0f64.cosh()).abs() / 2.0f64.cosh() < 0.2);
+    }
+
+    #[test]
+    fn locate_finds_the_containing_element() {
+        let ax = Axis::graded(0.0, 1.0, 10, 0.3, 2.0);
+        for i in 0..10 {
+            let mid = 0.5 * (ax.vertices[i] + ax.vertices[i + 1]);
+            assert_eq!(ax.locate(mid), i);
+        }
+        assert_eq!(ax.locate(1.0), 9);
+        assert_eq!(ax.locate(0.0), 0);
+    }
+}
