@@ -13,4 +13,5 @@ pub mod rheology;
 pub mod solver;
 pub mod store;
 pub mod sweep;
+pub mod validate;
 pub mod xfem;

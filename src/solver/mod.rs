@@ -1,1 +1,4 @@
 //! Weak forms and solvers.
+
+pub mod norms;
+pub mod stokes;
