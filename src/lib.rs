@@ -3,6 +3,7 @@
 //! Module layering (imports point downward), see `DESIGN.md`:
 //! `config → geometry → mesh → fem → xfem → rheology → solver → particles → observe → sweep/store → cli`.
 
+pub mod bench;
 pub mod cli;
 pub mod config;
 pub mod fem;

@@ -18,7 +18,8 @@ use faer::sparse::linalg::cholesky::{
 use faer::sparse::linalg::lu::{
     factorize_symbolic_lu, LuRef, LuSymbolicParams, NumericLu, SymbolicLu,
 };
-use faer::sparse::linalg::SupernodalThreshold;
+use faer::sparse::linalg::{amd, SupernodalThreshold};
+use faer::sparse::SymbolicSparseColMatRef;
 use faer::{Conj, MatMut, Par, Side, Spec};
 
 use super::sparse::SparseMatrix;
@@ -88,6 +89,29 @@ impl DirectSolver {
     /// Symbolic analysis of the pattern of `a` (fill-reducing ordering, elimination tree,
     /// supernodes). Done once; every later [`factor`](Self::factor) reuses it.
     pub fn analyze(a: &SparseMatrix, kind: SolverKind) -> Result<Self, SolveError> {
+        Self::analyze_ordered(a, kind, None)
+    }
+
+    /// Like [`analyze`](Self::analyze), but for [`SolverKind::Lblt`] with a *node-block*
+    /// fill-reducing ordering: dofs are grouped into blocks (`blocks.block[d]`, e.g. all unknowns
+    /// living at one mesh node), AMD orders the block graph, and within a block the dofs follow
+    /// `blocks.class[d]` (ascending). Putting the pressure last in its node block means the
+    /// velocity it couples to is eliminated first, so the saddle-point system does not meet a
+    /// structurally zero pivot — the LBLᵀ only pivots inside supernodes and fails otherwise.
+    pub fn analyze_blocked(
+        a: &SparseMatrix,
+        kind: SolverKind,
+        blocks: &DofBlocks,
+    ) -> Result<Self, SolveError> {
+        let (fwd, inv) = block_amd_ordering(a, blocks)?;
+        Self::analyze_ordered(a, kind, Some((&fwd, &inv)))
+    }
+
+    fn analyze_ordered(
+        a: &SparseMatrix,
+        kind: SolverKind,
+        order: Option<(&[usize], &[usize])>,
+    ) -> Result<Self, SolveError> {
         let par = Par::Seq;
         let n = a.n();
         let (backend, req) = match kind {
@@ -97,13 +121,15 @@ impl DirectSolver {
                     supernodal_flop_ratio_threshold: SupernodalThreshold::FORCE_SUPERNODAL,
                     ..Default::default()
                 };
-                let symbolic = factorize_symbolic_cholesky(
-                    a.symbolic(),
-                    Side::Lower,
-                    SymmetricOrdering::Amd,
-                    params,
-                )
-                .map_err(|e| SolveError::Symbolic(format!("{e:?}")))?;
+                let ordering = match order {
+                    Some((fwd, inv)) => {
+                        SymmetricOrdering::Custom(PermRef::new_checked(fwd, inv, n))
+                    }
+                    None => SymmetricOrdering::Amd,
+                };
+                let symbolic =
+                    factorize_symbolic_cholesky(a.symbolic(), Side::Lower, ordering, params)
+                        .map_err(|e| SolveError::Symbolic(format!("{e:?}")))?;
                 let req = StackReq::any_of(&[
                     symbolic.factorize_numeric_intranode_lblt_scratch::<f64>(
                         par,
@@ -261,6 +287,83 @@ impl DirectSolver {
             Err(SolveError::Inaccurate { residual: res })
         }
     }
+}
+
+/// Grouping of dofs into blocks for [`DirectSolver::analyze_blocked`].
+#[derive(Debug, Clone)]
+pub struct DofBlocks {
+    /// Block id of each dof (blocks numbered 0..n_blocks).
+    pub block: Vec<u32>,
+    /// Elimination class of each dof inside its block (lower first).
+    pub class: Vec<u8>,
+}
+
+/// AMD on the block graph of `a`, expanded to dofs; returns (forward, inverse) permutations
+/// (`forward[new] = old`).
+fn block_amd_ordering(
+    a: &SparseMatrix,
+    blocks: &DofBlocks,
+) -> Result<(Vec<usize>, Vec<usize>), SolveError> {
+    let n = a.n();
+    assert_eq!(blocks.block.len(), n, "one block id per dof");
+    let nb = blocks
+        .block
+        .iter()
+        .map(|&b| b as usize + 1)
+        .max()
+        .unwrap_or(0);
+    let mut adj: Vec<Vec<u32>> = vec![Vec::new(); nb];
+    let sym = a.symbolic();
+    for j in 0..n {
+        let bj = blocks.block[j];
+        let col = &mut adj[bj as usize];
+        for &i in sym.row_idx_of_col_raw(j) {
+            let bi = blocks.block[i];
+            if bi != bj {
+                col.push(bi);
+            }
+        }
+        if col.len() > 256 {
+            col.sort_unstable();
+            col.dedup();
+        }
+    }
+    let mut col_ptr = Vec::with_capacity(nb + 1);
+    let mut row_idx = Vec::new();
+    col_ptr.push(0usize);
+    for mut c in adj {
+        c.sort_unstable();
+        c.dedup();
+        row_idx.extend(c.iter().map(|&i| i as usize));
+        col_ptr.push(row_idx.len());
+    }
+    let graph = SymbolicSparseColMatRef::new_checked(nb, nb, &col_ptr, None, &row_idx);
+    let (mut bperm, mut bperm_inv) = (vec![0usize; nb], vec![0usize; nb]);
+    let mut buf = MemBuffer::new(amd::order_scratch::<usize>(nb, row_idx.len()));
+    amd::order(
+        &mut bperm,
+        &mut bperm_inv,
+        graph,
+        amd::Control::default(),
+        MemStack::new(&mut buf),
+    )
+    .map_err(|e| SolveError::Symbolic(format!("block AMD: {e:?}")))?;
+    // dofs of each block, sorted by (class, dof)
+    let mut members: Vec<Vec<usize>> = vec![Vec::new(); nb];
+    for d in 0..n {
+        members[blocks.block[d] as usize].push(d);
+    }
+    let mut fwd = Vec::with_capacity(n);
+    for &b in &bperm {
+        let m = &mut members[b];
+        m.sort_by_key(|&d| (blocks.class[d], d));
+        fwd.extend_from_slice(m);
+    }
+    let mut inv = vec![0usize; n];
+    for (new, &old) in fwd.iter().enumerate() {
+        inv[old] = new;
+    }
+    Ok((fwd, inv))
 }
 
 /// r = b − A x; returns ‖r‖/‖b‖ (or ‖r‖ if b = 0).

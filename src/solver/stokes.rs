@@ -19,7 +19,7 @@
 use std::time::Instant;
 
 use crate::fem::element::{physical_gradients, q1, q2, q2_map};
-use crate::fem::linsolve::{DirectSolver, SolveError, SolverKind};
+use crate::fem::linsolve::{DirectSolver, DofBlocks, SolveError, SolverKind};
 use crate::fem::quadrature::{gauss_quad, QuadRule};
 use crate::fem::sparse::{PatternBuilder, SparseMatrix};
 use crate::mesh::{Mesh, Side};
@@ -130,9 +130,22 @@ impl Stokes {
         };
         let mut pb = PatternBuilder::new(layout.n_dofs());
         let mut dofs = Vec::with_capacity(MAX_EL_DOFS);
+        let (mut g_ij, mut u_i) = (Vec::with_capacity(4), Vec::with_capacity(9));
         for e in 0..mesh.n_elements() {
             element_dofs(&mesh, &layout, e, &mut dofs);
-            pb.add_group(&dofs);
+            // velocity and pressure couple fully; each G_ij only with itself and u_i (a third of
+            // the entries a full element block would store)
+            pb.add_group(&dofs[..22]);
+            if layout.with_g {
+                for ij in 0..4 {
+                    g_ij.clear();
+                    g_ij.extend(mesh.element_vertices[e].iter().map(|&v| layout.g(v, ij)));
+                    u_i.clear();
+                    u_i.extend(mesh.elements[e].iter().map(|&k| layout.u(k, ij / 2)));
+                    pb.add_group(&g_ij);
+                    pb.add_coupling(&g_ij, &u_i);
+                }
+            }
         }
         let matrix = pb.build();
         let n = layout.n_dofs();
@@ -183,7 +196,14 @@ impl Stokes {
         let t1 = Instant::now();
         let mut symbolic = 0.0;
         if self.solver.is_none() {
-            self.solver = Some(DirectSolver::analyze(&self.matrix, self.params.solver)?);
+            self.solver = Some(match self.params.solver {
+                SolverKind::Lblt => DirectSolver::analyze_blocked(
+                    &self.matrix,
+                    SolverKind::Lblt,
+                    &self.dof_blocks(),
+                )?,
+                SolverKind::Lu => DirectSolver::analyze(&self.matrix, SolverKind::Lu)?,
+            });
             symbolic = t1.elapsed().as_secs_f64();
         }
         let t2 = Instant::now();
@@ -253,6 +273,34 @@ impl Stokes {
                 .collect()
         });
         StokesSolution { u, p, g, residual }
+    }
+
+    /// Node blocks for the LBLᵀ ordering: each Q2 node's velocity, then (at vertices) its G, then
+    /// its pressure last.
+    fn dof_blocks(&self) -> DofBlocks {
+        let lay = self.layout;
+        let n = lay.n_dofs();
+        let mut blocks = DofBlocks {
+            block: vec![0; n],
+            class: vec![0; n],
+        };
+        for k in 0..lay.n_nodes {
+            for c in 0..2 {
+                blocks.block[lay.u(k, c)] = k as u32;
+            }
+        }
+        for v in 0..lay.n_vertices {
+            let k = self.mesh.node_of_vertex[v] as u32;
+            blocks.block[lay.p(v)] = k;
+            blocks.class[lay.p(v)] = 2;
+            if lay.with_g {
+                for ij in 0..4 {
+                    blocks.block[lay.g(v, ij)] = k;
+                    blocks.class[lay.g(v, ij)] = 1;
+                }
+            }
+        }
+        blocks
     }
 
     /// Largest asymmetry of the assembled matrix (0 up to round-off: the system is symmetric).
