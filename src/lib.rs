@@ -3,6 +3,9 @@
 //! Module layering (imports point downward), see `DESIGN.md`:
 //! `config → geometry → mesh → fem → xfem → rheology → solver → particles → observe → sweep/store → cli`.
 
+// Index loops mirror the tensor notation of the weak forms (i, j, k, l); iterator chains would hide it.
+#![allow(clippy::needless_range_loop)]
+
 pub mod bench;
 pub mod cli;
 pub mod config;

@@ -69,7 +69,7 @@ impl Axis {
     /// Coordinate of Q2 node `i` (even: vertex `i/2`, odd: midpoint of element `i/2`).
     #[inline]
     pub fn q2_coord(&self, i: usize) -> f64 {
-        if i % 2 == 0 {
+        if i.is_multiple_of(2) {
             self.vertices[i / 2]
         } else {
             0.5 * (self.vertices[i / 2] + self.vertices[i / 2 + 1])

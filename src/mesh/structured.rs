@@ -88,7 +88,7 @@ impl Mesh {
         for j in 0..n_node_rows {
             for i in 0..n_node_cols {
                 nodes.push(coord(i, j));
-                if i % 2 == 0 && j % 2 == 0 {
+                if i.is_multiple_of(2) && j.is_multiple_of(2) {
                     vertex_of_node.push(Some(node_of_vertex.len()));
                     node_of_vertex.push(i + n_node_cols * j);
                 } else {
