@@ -1,4 +1,5 @@
 //! Weak forms and solvers.
 
 pub mod norms;
+pub mod rigid;
 pub mod stokes;
