@@ -52,11 +52,7 @@ pub fn stokes(
     );
     let mut st = Stokes::new(
         mesh,
-        StokesParams {
-            eta: 0.59,
-            theta: if with_g { 0.41 } else { 0.0 },
-            solver,
-        },
+        StokesParams::new(0.59, if with_g { 0.41 } else { 0.0 }, solver),
     );
     let pattern = t.elapsed().as_secs_f64();
     st.set_velocity(Side::Bottom, |_| [-0.5, 0.0]);

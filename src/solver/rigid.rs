@@ -21,6 +21,63 @@ use nalgebra::{SMatrix, SVector};
 
 use crate::fem::element::{physical_gradients, q1, q2, q2_map};
 
+/// How a particle moves.
+#[derive(Debug, Clone, Copy, PartialEq)]
+pub enum Motion {
+    /// Force- and torque-free: (U, ω) are unknowns.
+    Free,
+    /// Prescribed translational and angular velocity (a fixed body when zero).
+    Prescribed {
+        /// Translational velocity.
+        u: [f64; 2],
+        /// Angular velocity (counter-clockwise positive).
+        omega: f64,
+    },
+}
+
+/// A rigid circular particle.
+#[derive(Debug, Clone, Copy, PartialEq)]
+pub struct Particle {
+    /// Centre.
+    pub center: [f64; 2],
+    /// Radius.
+    pub radius: f64,
+    /// Motion.
+    pub motion: Motion,
+}
+
+/// The boundary of one particle inside one cut element.
+#[derive(Debug, Clone, PartialEq)]
+pub struct ParticleCut {
+    /// Particle index.
+    pub particle: usize,
+    /// Centre of the particle image that cuts this element (differs from the particle centre
+    /// by a period when the particle crosses a periodic boundary).
+    pub center: [f64; 2],
+    /// Boundary quadrature points.
+    pub points: Vec<BoundaryPoint>,
+}
+
+/// Fluid-part and boundary quadrature of a cut element.
+#[derive(Debug, Clone, PartialEq)]
+pub struct CutQuadrature {
+    /// Fluid-part quadrature: reference points and reference weights (× det J gives physical).
+    pub vol: Vec<([f64; 2], f64)>,
+    /// Boundary pieces, one per particle cutting the element.
+    pub particles: Vec<ParticleCut>,
+}
+
+/// Where an element lies relative to the particles.
+#[derive(Debug, Clone, PartialEq)]
+pub enum ElementCut {
+    /// Entirely in the fluid.
+    Fluid,
+    /// Entirely inside particles (or a discarded sliver): no contribution.
+    Inside,
+    /// Cut by one or more particle boundaries.
+    Cut(CutQuadrature),
+}
+
 /// A quadrature point on a particle boundary inside one element.
 #[derive(Debug, Clone, Copy, PartialEq)]
 pub struct BoundaryPoint {

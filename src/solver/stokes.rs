@@ -23,6 +23,7 @@ use crate::fem::linsolve::{DirectSolver, DofBlocks, SolveError, SolverKind};
 use crate::fem::quadrature::{gauss_quad, QuadRule};
 use crate::fem::sparse::{PatternBuilder, SparseMatrix};
 use crate::mesh::{Mesh, Side};
+use crate::solver::rigid::{weak_rigid_kernel, CutElement, ElementCut, Motion, Particle, WeakForm};
 
 /// Physical and numerical parameters of a Stokes solve.
 #[derive(Debug, Clone, Copy)]
@@ -33,6 +34,24 @@ pub struct StokesParams {
     pub theta: f64,
     /// Linear solver.
     pub solver: SolverKind,
+    /// Form of the weak rigid-body condition on particles.
+    pub rigid_form: WeakForm,
+    /// Stabilization parameter κ of the weak rigid-body condition (thesis: κ = η0).
+    pub kappa: f64,
+}
+
+impl StokesParams {
+    /// Parameters with viscosity `eta`, DEVSS-G `theta`, the given solver, and the weak rigid-body
+    /// condition in its symmetric form with κ = η + θ (= η0).
+    pub fn new(eta: f64, theta: f64, solver: SolverKind) -> Self {
+        Self {
+            eta,
+            theta,
+            solver,
+            rigid_form: WeakForm::Symmetric,
+            kappa: eta + theta,
+        }
+    }
 }
 
 /// Numbering of the unknowns: velocity (2 per Q2 node), pressure (1 per Q1 vertex), then G
@@ -45,6 +64,8 @@ pub struct Layout {
     pub n_vertices: usize,
     /// Whether G unknowns exist.
     pub with_g: bool,
+    /// Number of particles (3 rigid unknowns each: U_x, U_y, ω).
+    pub n_particles: usize,
 }
 
 impl Layout {
@@ -63,9 +84,18 @@ impl Layout {
     pub fn g(&self, v: usize, ij: usize) -> usize {
         2 * self.n_nodes + self.n_vertices + 4 * v + ij
     }
+    /// Rigid unknown `c` (0: U_x, 1: U_y, 2: ω) of particle `i`.
+    #[inline]
+    pub fn rigid(&self, i: usize, c: usize) -> usize {
+        self.n_field_dofs() + 3 * i + c
+    }
+    /// Number of field unknowns (velocity, pressure, G).
+    pub fn n_field_dofs(&self) -> usize {
+        2 * self.n_nodes + self.n_vertices + if self.with_g { 4 * self.n_vertices } else { 0 }
+    }
     /// Total number of unknowns.
     pub fn n_dofs(&self) -> usize {
-        2 * self.n_nodes + self.n_vertices + if self.with_g { 4 * self.n_vertices } else { 0 }
+        self.n_field_dofs() + 3 * self.n_particles
     }
 }
 
@@ -91,12 +121,19 @@ pub struct StokesSolution {
     pub p: Vec<f64>,
     /// Projected velocity gradient at each Q1 vertex (when θ > 0), `[G_xx, G_xy, G_yx, G_yy]`.
     pub g: Option<Vec<[f64; 4]>>,
+    /// Rigid velocities (U_x, U_y, ω) of the particles.
+    pub rigid: Vec<[f64; 3]>,
+    /// Hydrodynamic force and torque (F_x, F_y, T) on each particle from the weak-condition
+    /// reaction (consistent with the discrete momentum balance; ≈ 0 for free particles).
+    pub reaction: Vec<[f64; 3]>,
+    /// The same from the stress integral −∫ σ(u_h, p_h)·n ds over the particle boundary.
+    pub stress_force: Vec<[f64; 3]>,
     /// Relative residual of the linear solve.
     pub residual: f64,
 }
 
-/// Maximum dofs of one element: 18 velocity + 4 pressure + 16 G.
-const MAX_EL_DOFS: usize = 38;
+/// Maximum dofs of one element: 18 velocity + 4 pressure + 16 G + 3 rigid for up to 2 particles.
+const MAX_EL_DOFS: usize = 44;
 /// Relative residual accepted from the direct solver (a few hundred ulps of the matrix norm).
 const RESIDUAL_TOL: f64 = 1e-10;
 
@@ -116,23 +153,53 @@ pub struct Stokes {
     pressure_pinned: bool,
     solver: Option<DirectSolver>,
     rule: QuadRule,
+    particles: Vec<Particle>,
+    cuts: Vec<ElementCut>,
     /// Timings of the last solve.
     pub timings: Timings,
 }
 
 impl Stokes {
-    /// Builds the unknown numbering and the sparsity pattern on `mesh`.
+    /// Builds the unknown numbering and the sparsity pattern on `mesh` (no particles).
     pub fn new(mesh: Mesh, params: StokesParams) -> Self {
+        let cuts = vec![ElementCut::Fluid; mesh.n_elements()];
+        Self::with_particles(mesh, params, Vec::new(), cuts)
+    }
+
+    /// Builds the solver for a mesh cut by particles: `cuts[e]` says whether element `e` is fluid,
+    /// inside a particle or cut (with its fluid-part and boundary quadrature). Dofs of nodes that
+    /// touch no fluid become identity rows; prescribed particle motions are eliminated.
+    ///
+    /// # Panics
+    /// Panics if `cuts.len()` differs from the number of elements.
+    pub fn with_particles(
+        mesh: Mesh,
+        params: StokesParams,
+        particles: Vec<Particle>,
+        cuts: Vec<ElementCut>,
+    ) -> Self {
+        assert_eq!(cuts.len(), mesh.n_elements(), "one ElementCut per element");
         let layout = Layout {
             n_nodes: mesh.n_nodes(),
             n_vertices: mesh.n_vertices(),
             with_g: params.theta > 0.0,
+            n_particles: particles.len(),
         };
         let mut pb = PatternBuilder::new(layout.n_dofs());
         let mut dofs = Vec::with_capacity(MAX_EL_DOFS);
         let (mut g_ij, mut u_i) = (Vec::with_capacity(4), Vec::with_capacity(9));
         for e in 0..mesh.n_elements() {
+            if matches!(cuts[e], ElementCut::Inside) {
+                continue;
+            }
             element_dofs(&mesh, &layout, e, &mut dofs);
+            if let ElementCut::Cut(cut) = &cuts[e] {
+                let mut group = dofs[..22].to_vec();
+                for pc in &cut.particles {
+                    group.extend((0..3).map(|c| layout.rigid(pc.particle, c)));
+                }
+                pb.add_group(&group);
+            }
             // velocity and pressure couple fully; each G_ij only with itself and u_i (a third of
             // the entries a full element block would store)
             pb.add_group(&dofs[..22]);
@@ -149,6 +216,33 @@ impl Stokes {
         }
         let matrix = pb.build();
         let n = layout.n_dofs();
+        let mut fixed = vec![None; n];
+        // nodes touching no fluid: identity rows
+        let mut active = vec![false; layout.n_nodes];
+        for (e, cut) in cuts.iter().enumerate() {
+            if !matches!(cut, ElementCut::Inside) {
+                mesh.elements[e].iter().for_each(|&k| active[k] = true);
+            }
+        }
+        for k in 0..layout.n_nodes {
+            if !active[k] {
+                fixed[layout.u(k, 0)] = Some(0.0);
+                fixed[layout.u(k, 1)] = Some(0.0);
+                if let Some(v) = mesh.vertex_of_node[k] {
+                    fixed[layout.p(v)] = Some(0.0);
+                    if layout.with_g {
+                        (0..4).for_each(|ij| fixed[layout.g(v, ij)] = Some(0.0));
+                    }
+                }
+            }
+        }
+        for (i, p) in particles.iter().enumerate() {
+            if let Motion::Prescribed { u, omega } = p.motion {
+                fixed[layout.rigid(i, 0)] = Some(u[0]);
+                fixed[layout.rigid(i, 1)] = Some(u[1]);
+                fixed[layout.rigid(i, 2)] = Some(omega);
+            }
+        }
         Self {
             mesh,
             params,
@@ -156,12 +250,19 @@ impl Stokes {
             matrix,
             rhs: vec![0.0; n],
             sol: vec![0.0; n],
-            fixed: vec![None; n],
+            fixed,
             pressure_pinned: false,
             solver: None,
             rule: gauss_quad(3),
+            particles,
+            cuts,
             timings: Timings::default(),
         }
+    }
+
+    /// The particles.
+    pub fn particles(&self) -> &[Particle] {
+        &self.particles
     }
 
     /// Number of unknowns and of stored matrix entries.
@@ -181,7 +282,10 @@ impl Stokes {
 
     /// Pins the pressure at vertex 0 (for flows with velocity prescribed on the whole boundary).
     pub fn pin_pressure(&mut self) {
-        self.fixed[self.layout.p(0)] = Some(0.0);
+        let v = (0..self.layout.n_vertices)
+            .find(|&v| self.fixed[self.layout.p(v)].is_none())
+            .expect("some pressure vertex touches the fluid");
+        self.fixed[self.layout.p(v)] = Some(0.0);
         self.pressure_pinned = true;
     }
 
@@ -239,17 +343,66 @@ impl Stokes {
         let mut dn = [[0.0; 2]; 9];
         for e in 0..self.mesh.n_elements() {
             element_dofs(&self.mesh, &lay, e, &mut dofs);
-            let ke = &mut ke[..nd * nd];
-            let fe = &mut fe[..nd];
+            let xe = &self.mesh.element_coords[e];
+            let cut = match &self.cuts[e] {
+                ElementCut::Inside => continue,
+                ElementCut::Fluid => None,
+                ElementCut::Cut(c) => Some(c),
+            };
+            let ndc = nd + 3 * cut.map_or(0, |c| c.particles.len());
+            let ke = &mut ke[..ndc * ndc];
+            let fe = &mut fe[..ndc];
             ke.iter_mut().for_each(|v| *v = 0.0);
             fe.iter_mut().for_each(|v| *v = 0.0);
-            let xe = &self.mesh.element_coords[e];
-            for (q, ((n2, dref), psi)) in tab.iter().enumerate() {
-                let (x, jac, det) = q2_map(xe, self.rule.points[q]);
-                let w = self.rule.weights[q] * det;
-                physical_gradients(&jac, det, dref, &mut dn);
-                let force = f(x);
-                stokes_kernel(ke, fe, nd, w, eta, theta, n2, &dn, psi, force, lay.with_g);
+            match cut {
+                None => {
+                    for (q, ((n2, dref), psi)) in tab.iter().enumerate() {
+                        let (x, jac, det) = q2_map(xe, self.rule.points[q]);
+                        let w = self.rule.weights[q] * det;
+                        physical_gradients(&jac, det, dref, &mut dn);
+                        stokes_kernel(ke, fe, ndc, w, eta, theta, n2, &dn, psi, f(x), lay.with_g);
+                    }
+                }
+                Some(cut) => {
+                    for &(xi, wref) in &cut.vol {
+                        let (x, jac, det) = q2_map(xe, xi);
+                        let (n2, dref) = q2(xi);
+                        physical_gradients(&jac, det, &dref, &mut dn);
+                        let psi = q1(xi).0;
+                        stokes_kernel(
+                            ke,
+                            fe,
+                            ndc,
+                            wref * det,
+                            eta,
+                            theta,
+                            &n2,
+                            &dn,
+                            &psi,
+                            f(x),
+                            lay.with_g,
+                        );
+                    }
+                    for (slot, pc) in cut.particles.iter().enumerate() {
+                        dofs.extend((0..3).map(|c| lay.rigid(pc.particle, c)));
+                        let ce = CutElement {
+                            xe,
+                            vol: &cut.vol,
+                            bnd: &pc.points,
+                        };
+                        let off = nd + 3 * slot;
+                        weak_rigid_kernel(
+                            ke,
+                            ndc,
+                            off,
+                            &ce,
+                            pc.center,
+                            eta,
+                            self.params.kappa,
+                            self.params.rigid_form,
+                        );
+                    }
+                }
             }
             self.matrix
                 .scatter(&dofs, ke, fe, &mut self.rhs, &self.fixed);
@@ -272,7 +425,105 @@ impl Stokes {
                 .map(|v| [0, 1, 2, 3].map(|ij| self.sol[lay.g(v, ij)]))
                 .collect()
         });
-        StokesSolution { u, p, g, residual }
+        let rigid = (0..lay.n_particles)
+            .map(|i| [0, 1, 2].map(|c| self.sol[lay.rigid(i, c)]))
+            .collect();
+        let (reaction, stress_force) = self.particle_forces();
+        StokesSolution {
+            u,
+            p,
+            g,
+            rigid,
+            reaction,
+            stress_force,
+            residual,
+        }
+    }
+
+    /// Force and torque on each particle: from the rigid rows of the weak condition (reaction)
+    /// and from the stress integral over the boundary quadrature.
+    fn particle_forces(&self) -> (Vec<[f64; 3]>, Vec<[f64; 3]>) {
+        let lay = self.layout;
+        let np = lay.n_particles;
+        let (mut reaction, mut stress) = (vec![[0.0; 3]; np], vec![[0.0; 3]; np]);
+        if np == 0 {
+            return (reaction, stress);
+        }
+        let nd = 22 + if lay.with_g { 16 } else { 0 };
+        let mut dofs = Vec::with_capacity(MAX_EL_DOFS);
+        let mut ke = vec![0.0; (nd + 3) * (nd + 3)];
+        let mut dn = [[0.0; 2]; 9];
+        for (e, cut) in self.cuts.iter().enumerate() {
+            let ElementCut::Cut(cut) = cut else { continue };
+            element_dofs(&self.mesh, &lay, e, &mut dofs);
+            let xe = &self.mesh.element_coords[e];
+            let ue: Vec<[f64; 2]> = self.mesh.elements[e]
+                .iter()
+                .map(|&k| [self.sol[lay.u(k, 0)], self.sol[lay.u(k, 1)]])
+                .collect();
+            let pe: Vec<f64> = self.mesh.element_vertices[e]
+                .iter()
+                .map(|&v| self.sol[lay.p(v)])
+                .collect();
+            for pc in &cut.particles {
+                let i = pc.particle;
+                // reaction: −(rigid rows of the weak-condition kernel) · x
+                ke.iter_mut().for_each(|v| *v = 0.0);
+                let ce = CutElement {
+                    xe,
+                    vol: &cut.vol,
+                    bnd: &pc.points,
+                };
+                weak_rigid_kernel(
+                    &mut ke,
+                    nd + 3,
+                    nd,
+                    &ce,
+                    pc.center,
+                    self.params.eta,
+                    self.params.kappa,
+                    self.params.rigid_form,
+                );
+                for c in 0..3 {
+                    let row = &ke[(nd + c) * (nd + 3)..(nd + c + 1) * (nd + 3)];
+                    let mut r: f64 = (0..nd).map(|a| row[a] * self.sol[dofs[a]]).sum();
+                    r += (0..3)
+                        .map(|d| row[nd + d] * self.sol[lay.rigid(i, d)])
+                        .sum::<f64>();
+                    reaction[i][c] -= r;
+                }
+                // stress integral: force on the particle = −∫ σ(u_h, p_h)·n_fluid ds
+                for bp in &pc.points {
+                    let (_, jac, det) = q2_map(xe, bp.xi);
+                    let dref = q2(bp.xi).1;
+                    physical_gradients(&jac, det, &dref, &mut dn);
+                    let psi = q1(bp.xi).0;
+                    let mut l = [[0.0; 2]; 2];
+                    for k in 0..9 {
+                        for a in 0..2 {
+                            for b in 0..2 {
+                                l[a][b] += dn[k][b] * ue[k][a];
+                            }
+                        }
+                    }
+                    let p: f64 = (0..4).map(|m| psi[m] * pe[m]).sum();
+                    let eta = self.params.eta;
+                    let sig = [
+                        [-p + 2.0 * eta * l[0][0], eta * (l[0][1] + l[1][0])],
+                        [eta * (l[0][1] + l[1][0]), -p + 2.0 * eta * l[1][1]],
+                    ];
+                    let t = [
+                        -(sig[0][0] * bp.n[0] + sig[0][1] * bp.n[1]),
+                        -(sig[1][0] * bp.n[0] + sig[1][1] * bp.n[1]),
+                    ];
+                    let r = [bp.x[0] - pc.center[0], bp.x[1] - pc.center[1]];
+                    stress[i][0] += bp.w * t[0];
+                    stress[i][1] += bp.w * t[1];
+                    stress[i][2] += bp.w * (r[0] * t[1] - r[1] * t[0]);
+                }
+            }
+        }
+        (reaction, stress)
     }
 
     /// Node blocks for the LBLᵀ ordering: each Q2 node's velocity, then (at vertices) its G, then
@@ -298,6 +549,11 @@ impl Stokes {
                     blocks.block[lay.g(v, ij)] = k;
                     blocks.class[lay.g(v, ij)] = 1;
                 }
+            }
+        }
+        for i in 0..lay.n_particles {
+            for c in 0..3 {
+                blocks.block[lay.rigid(i, c)] = (lay.n_nodes + i) as u32;
             }
         }
         blocks

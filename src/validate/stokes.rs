@@ -125,11 +125,7 @@ pub fn stokes_mms(
     solver: SolverKind,
 ) -> Result<ConvStudy, SolveError> {
     let exact = TrigFlow { eta: 1.0 };
-    let params = StokesParams {
-        eta: 1.0,
-        theta: if with_g { 1.0 } else { 0.0 },
-        solver,
-    };
+    let params = StokesParams::new(1.0, if with_g { 1.0 } else { 0.0 }, solver);
     let mut rows = Vec::new();
     for l in 0..levels {
         let (mesh, label, h) = mms_mesh(domain, l);
@@ -193,11 +189,7 @@ pub fn plane_couette_max_error(with_g: bool) -> Result<f64, SolveError> {
     );
     let mut st = Stokes::new(
         mesh,
-        StokesParams {
-            eta: 0.7,
-            theta: if with_g { 0.3 } else { 0.0 },
-            solver: SolverKind::Lblt,
-        },
+        StokesParams::new(0.7, if with_g { 0.3 } else { 0.0 }, SolverKind::Lblt),
     );
     st.set_velocity(Side::Bottom, |_| [-u / 2.0, 0.0]);
     st.set_velocity(Side::Top, |_| [u / 2.0, 0.0]);
@@ -236,14 +228,7 @@ pub fn circular_couette(levels: usize) -> Result<ConvStudy, SolveError> {
         let m = 1usize << l;
         let (nt, nr) = (16 * m, 4 * m);
         let mesh = Mesh::annulus(nt, Axis::graded(1.0, 4.0, nr, 1.0, 1.0));
-        let mut st = Stokes::new(
-            mesh,
-            StokesParams {
-                eta: 1.0,
-                theta: 0.0,
-                solver: SolverKind::Lblt,
-            },
-        );
+        let mut st = Stokes::new(mesh, StokesParams::new(1.0, 0.0, SolverKind::Lblt));
         st.set_velocity(Side::Bottom, |x| exact.u(x));
         st.set_velocity(Side::Top, |_| [0.0, 0.0]);
         st.pin_pressure();
