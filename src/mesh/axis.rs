@@ -56,6 +56,60 @@ impl Axis {
         Self { vertices }
     }
 
+    /// Uniform elements of size ≈ `h` on the band [lo, hi] ⊂ [a, b], and outside it elements
+    /// growing geometrically by `growth` (≥ 1) toward the ends, scaled to end exactly at a and b.
+    /// For resolving a region (a particle's neighbourhood) without refining the whole domain.
+    ///
+    /// # Panics
+    /// Panics unless a ≤ lo < hi ≤ b, h > 0 and growth ≥ 1.
+    pub fn banded(a: f64, b: f64, lo: f64, hi: f64, h: f64, growth: f64) -> Self {
+        assert!(a <= lo && lo < hi && hi <= b && h > 0.0 && growth >= 1.0, "Axis::banded: bad arguments");
+        let nb = ((hi - lo) / h).round().max(1.0) as usize;
+        let hb = (hi - lo) / nb as f64;
+        let outer = |len: f64| -> Vec<f64> {
+            // sizes hb·g, hb·g², … until they cover `len`, then scaled to sum to `len`
+            if len <= 0.0 {
+                return Vec::new();
+            }
+            let mut sizes = Vec::new();
+            let (mut size, mut sum) = (hb, 0.0);
+            while sum < len {
+                size *= growth;
+                sizes.push(size);
+                sum += size;
+                if sum >= len && sum - len > 0.5 * size && sizes.len() > 1 {
+                    // dropping the last element leaves the smaller relative stretch
+                    let last = sizes.pop().unwrap_or(size);
+                    sum -= last;
+                    break;
+                }
+            }
+            let scale = len / sum;
+            sizes.iter().map(|s| s * scale).collect()
+        };
+        let left = outer(lo - a);
+        let right = outer(b - hi);
+        let mut vertices = vec![a];
+        let mut x = a;
+        for s in left.iter().rev() {
+            x += s;
+            vertices.push(x);
+        }
+        let lo_idx = vertices.len() - 1;
+        vertices[lo_idx] = lo;
+        for i in 1..=nb {
+            vertices.push(lo + hb * i as f64);
+        }
+        x = hi;
+        for s in &right {
+            x += s;
+            vertices.push(x);
+        }
+        let n = vertices.len() - 1;
+        vertices[n] = b;
+        Self { vertices }
+    }
+
     /// Number of elements.
     pub fn len(&self) -> usize {
         self.vertices.len() - 1
@@ -116,6 +170,21 @@ mod tests {
         let he: Vec<f64> = end.vertices.windows(2).map(|w| w[1] - w[0]).collect();
         assert!(he.windows(2).all(|w| w[1] > w[0]));
         assert!((he[19] / he[0] - 2.0f64.cosh()).abs() / 2.0f64.cosh() < 0.2);
+    }
+
+    #[test]
+    fn banded_axis_is_uniform_in_band_and_grows_outside() {
+        let ax = Axis::banded(-15.0, 15.0, -1.5, 1.5, 0.05, 1.1);
+        assert_eq!(ax.vertices[0], -15.0);
+        assert_eq!(*ax.vertices.last().unwrap(), 15.0);
+        assert!(ax.vertices.windows(2).all(|w| w[1] > w[0]));
+        let h: Vec<f64> = ax.vertices.windows(2).map(|w| w[1] - w[0]).collect();
+        let i = ax.locate(0.0);
+        assert!((h[i] - 0.05).abs() < 1e-12);
+        // outside the band sizes grow by at most the growth factor (after scaling, ±20 %)
+        assert!(h.windows(2).all(|w| w[1] / w[0] < 1.1 * 1.2 && w[0] / w[1] < 1.1 * 1.2));
+        let whole = Axis::banded(0.0, 1.0, 0.0, 1.0, 0.1, 1.2);
+        assert_eq!(whole.len(), 10);
     }
 
     #[test]
