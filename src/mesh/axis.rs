@@ -63,7 +63,10 @@ impl Axis {
     /// # Panics
     /// Panics unless a ≤ lo < hi ≤ b, h > 0 and growth ≥ 1.
     pub fn banded(a: f64, b: f64, lo: f64, hi: f64, h: f64, growth: f64) -> Self {
-        assert!(a <= lo && lo < hi && hi <= b && h > 0.0 && growth >= 1.0, "Axis::banded: bad arguments");
+        assert!(
+            a <= lo && lo < hi && hi <= b && h > 0.0 && growth >= 1.0,
+            "Axis::banded: bad arguments"
+        );
         let nb = ((hi - lo) / h).round().max(1.0) as usize;
         let hb = (hi - lo) / nb as f64;
         let outer = |len: f64| -> Vec<f64> {
@@ -182,7 +185,9 @@ mod tests {
         let i = ax.locate(0.0);
         assert!((h[i] - 0.05).abs() < 1e-12);
         // outside the band sizes grow by at most the growth factor (after scaling, ±20 %)
-        assert!(h.windows(2).all(|w| w[1] / w[0] < 1.1 * 1.2 && w[0] / w[1] < 1.1 * 1.2));
+        assert!(h
+            .windows(2)
+            .all(|w| w[1] / w[0] < 1.1 * 1.2 && w[0] / w[1] < 1.1 * 1.2));
         let whole = Axis::banded(0.0, 1.0, 0.0, 1.0, 0.1, 1.2);
         assert_eq!(whole.len(), 10);
     }

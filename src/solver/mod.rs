@@ -1,5 +1,6 @@
 //! Weak forms and solvers.
 
 pub mod norms;
+pub mod polymer_terms;
 pub mod rigid;
 pub mod stokes;

@@ -195,6 +195,20 @@ pub fn weak_rigid_kernel(
     consistency_terms(ke, nd, off_rigid, cut, center, eta, form);
 }
 
+/// Jump vectors g of the 21 jump dofs at a boundary point: velocity dof (a, c) → N_a e_c,
+/// U_x → −e_x, U_y → −e_y, ω → −(−r_y, r_x), with r = x − X and `phi` the Q2 values there.
+pub fn jump_vectors(phi: &[f64; 9], r: [f64; 2]) -> [[f64; 2]; 21] {
+    let mut jv = [[0.0f64; 2]; 21];
+    for a in 0..9 {
+        jv[2 * a] = [phi[a], 0.0];
+        jv[2 * a + 1] = [0.0, phi[a]];
+    }
+    jv[18] = [-1.0, 0.0];
+    jv[19] = [0.0, -1.0];
+    jv[20] = [r[1], -r[0]];
+    jv
+}
+
 /// −(g(v), σ(u,p)·n)_Γ and, for the symmetric form, −(σ(v,q)·n, g(u))_Γ.
 #[allow(clippy::too_many_arguments)]
 fn consistency_terms(
@@ -214,15 +228,7 @@ fn consistency_terms(
         let psi = q1(bp.xi).0;
         let r = [bp.x[0] - center[0], bp.x[1] - center[1]];
         let n = bp.n;
-        // jump vectors of the 21 jump dofs at this point
-        let mut jv = [[0.0f64; 2]; 21];
-        for a in 0..9 {
-            jv[2 * a] = [phi[a], 0.0];
-            jv[2 * a + 1] = [0.0, phi[a]];
-        }
-        jv[18] = [-1.0, 0.0];
-        jv[19] = [0.0, -1.0];
-        jv[20] = [r[1], -r[0]];
+        let jv = jump_vectors(&phi, r);
         // tractions σ(β)·n of the 22 stress dofs (velocity, pressure)
         let mut tv = [[0.0f64; 2]; 22];
         for b in 0..9 {

@@ -23,7 +23,10 @@ use crate::fem::linsolve::{DirectSolver, DofBlocks, SolveError, SolverKind};
 use crate::fem::quadrature::{gauss_quad, QuadRule};
 use crate::fem::sparse::{PatternBuilder, SparseMatrix};
 use crate::mesh::{Mesh, Side};
-use crate::solver::rigid::{weak_rigid_kernel, CutElement, ElementCut, Motion, Particle, WeakForm};
+use crate::solver::polymer_terms::{boundary_terms, volume_terms, PolymerStress};
+use crate::solver::rigid::{
+    jump_vectors, weak_rigid_kernel, CutElement, ElementCut, Motion, Particle, WeakForm,
+};
 
 /// Physical and numerical parameters of a Stokes solve.
 #[derive(Debug, Clone, Copy)]
@@ -38,6 +41,9 @@ pub struct StokesParams {
     pub rigid_form: WeakForm,
     /// Stabilization parameter κ of the weak rigid-body condition (thesis: κ = η0).
     pub kappa: f64,
+    /// With θ > 0: G as coupled unknowns (true) or supplied explicitly by the caller through
+    /// [`PolymerStress`] as −θGⁿ (false; the flow matrix then has no G block).
+    pub coupled_g: bool,
 }
 
 impl StokesParams {
@@ -50,6 +56,7 @@ impl StokesParams {
             solver,
             rigid_form: WeakForm::Symmetric,
             kappa: eta + theta,
+            coupled_g: true,
         }
     }
 }
@@ -182,7 +189,7 @@ impl Stokes {
         let layout = Layout {
             n_nodes: mesh.n_nodes(),
             n_vertices: mesh.n_vertices(),
-            with_g: params.theta > 0.0,
+            with_g: params.theta > 0.0 && params.coupled_g,
             n_particles: particles.len(),
         };
         let mut pb = PatternBuilder::new(layout.n_dofs());
@@ -295,8 +302,24 @@ impl Stokes {
         &mut self,
         f: &dyn Fn([f64; 2]) -> [f64; 2],
     ) -> Result<StokesSolution, SolveError> {
+        self.solve_with(f, None)
+    }
+
+    /// Like [`solve`](Self::solve), with a polymer stress in the momentum balance (volume and
+    /// particle-boundary terms). An implicit stress needs the LU solver (non-symmetric matrix).
+    pub fn solve_with(
+        &mut self,
+        f: &dyn Fn([f64; 2]) -> [f64; 2],
+        stress: Option<&dyn PolymerStress>,
+    ) -> Result<StokesSolution, SolveError> {
+        if let Some(ps) = stress {
+            assert!(
+                !(ps.is_implicit() && self.params.solver == SolverKind::Lblt),
+                "an implicit polymer stress makes the flow matrix non-symmetric: use SolverKind::Lu"
+            );
+        }
         let t0 = Instant::now();
-        self.assemble(f);
+        self.assemble(f, stress);
         let t1 = Instant::now();
         let mut symbolic = 0.0;
         if self.solver.is_none() {
@@ -325,7 +348,7 @@ impl Stokes {
         Ok(self.extract(residual))
     }
 
-    fn assemble(&mut self, f: &dyn Fn([f64; 2]) -> [f64; 2]) {
+    fn assemble(&mut self, f: &dyn Fn([f64; 2]) -> [f64; 2], stress: Option<&dyn PolymerStress>) {
         self.matrix.zero();
         self.rhs.iter_mut().for_each(|v| *v = 0.0);
         let lay = self.layout;
@@ -361,6 +384,10 @@ impl Stokes {
                         let w = self.rule.weights[q] * det;
                         physical_gradients(&jac, det, dref, &mut dn);
                         stokes_kernel(ke, fe, ndc, w, eta, theta, n2, &dn, psi, f(x), lay.with_g);
+                        if let Some(ps) = stress {
+                            let lin = ps.at(e, self.rule.points[q], x, false);
+                            volume_terms(ke, fe, ndc, w, n2, &dn, &lin);
+                        }
                     }
                 }
                 Some(cut) => {
@@ -382,6 +409,10 @@ impl Stokes {
                             f(x),
                             lay.with_g,
                         );
+                        if let Some(ps) = stress {
+                            let lin = ps.at(e, xi, x, false);
+                            volume_terms(ke, fe, ndc, wref * det, &n2, &dn, &lin);
+                        }
                     }
                     for (slot, pc) in cut.particles.iter().enumerate() {
                         dofs.extend((0..3).map(|c| lay.rigid(pc.particle, c)));
@@ -401,6 +432,17 @@ impl Stokes {
                             self.params.kappa,
                             self.params.rigid_form,
                         );
+                        if let Some(ps) = stress {
+                            for bp in &pc.points {
+                                let (_, jac, det) = q2_map(xe, bp.xi);
+                                let (n2, dref) = q2(bp.xi);
+                                physical_gradients(&jac, det, &dref, &mut dn);
+                                let r = [bp.x[0] - pc.center[0], bp.x[1] - pc.center[1]];
+                                let jv = jump_vectors(&n2, r);
+                                let lin = ps.at(e, bp.xi, bp.x, true);
+                                boundary_terms(ke, fe, ndc, off, bp.w, &jv, &n2, &dn, bp.n, &lin);
+                            }
+                        }
                     }
                 }
             }

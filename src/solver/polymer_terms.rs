@@ -1,0 +1,186 @@
+//! Polymer-stress terms of the momentum balance, for a stress given in linearized form at each
+//! quadrature point (thesis Eqs. 2.13, 5.17, 5.21 with τ from Eq. 5.26 or explicit τⁿ):
+//!
+//! ```text
+//!   τ_ij = A_ijkl L_kl(u) + B_ijk u_k + b_ij,      L_kl = ∂u_k/∂x_l
+//!   volume:    + (L(v), τ)                 (the (∇v)ᵀ : τ term)
+//!   boundary:  − (g(v, V, χ), τ·n)_Γ       (with the weak rigid-body condition)
+//! ```
+//!
+//! `A` and `B` make the flow matrix non-symmetric (use the LU solver); an explicit stress (only
+//! `b`) keeps it symmetric. The caller also uses `b` for an explicit DEVSS-G term −θGⁿ.
+
+/// Linearized stress at one point: τ = A : L(u) + B · u + b.
+#[derive(Debug, Clone, Copy, Default, PartialEq)]
+pub struct StressLin {
+    /// A_ijkl (implicit part in the velocity gradient), if any.
+    pub a: Option<[[[[f64; 2]; 2]; 2]; 2]>,
+    /// B_ijk (implicit part in the velocity, e.g. −GΔt ∂_k cⁿ_ij of Eq. 5.26), if any.
+    pub b_u: Option<[[[f64; 2]; 2]; 2]>,
+    /// b_ij (explicit part).
+    pub b: [[f64; 2]; 2],
+}
+
+/// Supplies the linearized polymer stress during assembly.
+pub trait PolymerStress: Sync {
+    /// The stress at reference point `xi` (physical `x`) of element `e`; `on_boundary` is true
+    /// for particle-boundary quadrature points (where only the polymer stress τ belongs, not a
+    /// DEVSS-G term).
+    fn at(&self, e: usize, xi: [f64; 2], x: [f64; 2], on_boundary: bool) -> StressLin;
+
+    /// Whether any point has implicit parts (A or B): then the flow matrix is non-symmetric.
+    fn is_implicit(&self) -> bool;
+}
+
+/// Adds + (L(v), τ) at one volume point (weight `w` = Gauss weight × det J) to the velocity
+/// rows/columns (local dofs 0..18, node-major) of `ke` (row-major, `nd` wide) and to `fe`.
+#[allow(clippy::too_many_arguments)]
+pub fn volume_terms(
+    ke: &mut [f64],
+    fe: &mut [f64],
+    nd: usize,
+    w: f64,
+    n2: &[f64; 9],
+    dn: &[[f64; 2]; 9],
+    lin: &StressLin,
+) {
+    for a in 0..9 {
+        for c in 0..2 {
+            let row = 2 * a + c;
+            // (L(v), b): v = N_a e_c, L(v)_cj = ∂_j N_a; moved to the right-hand side
+            fe[row] -= w * (dn[a][0] * lin.b[c][0] + dn[a][1] * lin.b[c][1]);
+            if lin.a.is_none() && lin.b_u.is_none() {
+                continue;
+            }
+            for b in 0..9 {
+                for d in 0..2 {
+                    let mut v = 0.0;
+                    for j in 0..2 {
+                        let mut t = 0.0;
+                        if let Some(aa) = &lin.a {
+                            t += aa[c][j][d][0] * dn[b][0] + aa[c][j][d][1] * dn[b][1];
+                        }
+                        if let Some(bu) = &lin.b_u {
+                            t += bu[c][j][d] * n2[b];
+                        }
+                        v += dn[a][j] * t;
+                    }
+                    ke[row * nd + 2 * b + d] += w * v;
+                }
+            }
+        }
+    }
+}
+
+/// Adds − (g(v, V, χ), τ·n)_Γ at one boundary point: `jv[α]` are the jump vectors of the 21
+/// jump dofs (18 velocity, then U_x, U_y, ω at local `off_rigid..`), `n2`, `dn` the velocity
+/// shape functions and gradients at the point, `n` the fluid normal, `w` the arc-length weight.
+#[allow(clippy::too_many_arguments)]
+pub fn boundary_terms(
+    ke: &mut [f64],
+    fe: &mut [f64],
+    nd: usize,
+    off_rigid: usize,
+    w: f64,
+    jv: &[[f64; 2]; 21],
+    n2: &[f64; 9],
+    dn: &[[f64; 2]; 9],
+    n: [f64; 2],
+    lin: &StressLin,
+) {
+    let local = |alpha: usize| {
+        if alpha < 18 {
+            alpha
+        } else {
+            off_rigid + alpha - 18
+        }
+    };
+    let bn = [
+        lin.b[0][0] * n[0] + lin.b[0][1] * n[1],
+        lin.b[1][0] * n[0] + lin.b[1][1] * n[1],
+    ];
+    for alpha in 0..21 {
+        // −(g, b·n) moves to the right-hand side with a plus sign
+        fe[local(alpha)] += w * (jv[alpha][0] * bn[0] + jv[alpha][1] * bn[1]);
+        if lin.a.is_none() && lin.b_u.is_none() {
+            continue;
+        }
+        for b in 0..9 {
+            for d in 0..2 {
+                // (τ·n)_i for trial u = N_b e_d
+                let mut t = [0.0; 2];
+                for i in 0..2 {
+                    for j in 0..2 {
+                        if let Some(aa) = &lin.a {
+                            t[i] += (aa[i][j][d][0] * dn[b][0] + aa[i][j][d][1] * dn[b][1]) * n[j];
+                        }
+                        if let Some(bu) = &lin.b_u {
+                            t[i] += bu[i][j][d] * n2[b] * n[j];
+                        }
+                    }
+                }
+                ke[local(alpha) * nd + 2 * b + d] -=
+                    w * (jv[alpha][0] * t[0] + jv[alpha][1] * t[1]);
+            }
+        }
+    }
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    #[test]
+    fn explicit_stress_gives_only_a_load() {
+        // (L(v), b) for b = [[1, 2], [3, 4]] and one node's gradient (1, 0): row u_x −1, row u_y −3
+        let mut ke = vec![0.0; 22 * 22];
+        let mut fe = vec![0.0; 22];
+        let mut dn = [[0.0; 2]; 9];
+        dn[4] = [1.0, 0.0];
+        let lin = StressLin {
+            b: [[1.0, 2.0], [3.0, 4.0]],
+            ..Default::default()
+        };
+        volume_terms(&mut ke, &mut fe, 22, 1.0, &[0.0; 9], &dn, &lin);
+        assert_eq!(fe[8], -1.0);
+        assert_eq!(fe[9], -3.0);
+        assert!(ke.iter().all(|&v| v == 0.0));
+    }
+
+    #[test]
+    fn newtonian_as_stress_matches_viscous_term() {
+        // τ = 2η D(u) written as A_ijkl = η (δ_ik δ_jl + δ_il δ_jk) gives the 2η D(v):D(u) matrix
+        let eta = 0.7;
+        let mut a = [[[[0.0; 2]; 2]; 2]; 2];
+        for i in 0..2 {
+            for j in 0..2 {
+                a[i][j][i][j] += eta;
+                a[i][j][j][i] += eta;
+            }
+        }
+        let lin = StressLin {
+            a: Some(a),
+            ..Default::default()
+        };
+        let mut dn = [[0.0; 2]; 9];
+        for (k, g) in dn.iter_mut().enumerate() {
+            *g = [(k as f64 * 0.37).sin(), (k as f64 * 0.71).cos()];
+        }
+        let mut ke = vec![0.0; 22 * 22];
+        let mut fe = vec![0.0; 22];
+        volume_terms(&mut ke, &mut fe, 22, 1.0, &[0.0; 9], &dn, &lin);
+        for a_ in 0..9 {
+            for c in 0..2 {
+                for b in 0..9 {
+                    for d in 0..2 {
+                        let gg = dn[a_][0] * dn[b][0] + dn[a_][1] * dn[b][1];
+                        let expect =
+                            eta * dn[a_][d] * dn[b][c] + if c == d { eta * gg } else { 0.0 };
+                        // the same arithmetic in another order: round-off only
+                        assert!((ke[(2 * a_ + c) * 22 + 2 * b + d] - expect).abs() < 1e-14);
+                    }
+                }
+            }
+        }
+    }
+}
