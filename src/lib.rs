@@ -13,6 +13,7 @@ pub mod fem;
 pub mod geometry;
 pub mod mesh;
 pub mod observe;
+pub mod particles;
 pub mod rheology;
 pub mod solver;
 pub mod store;

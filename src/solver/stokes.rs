@@ -139,8 +139,8 @@ pub struct StokesSolution {
     pub residual: f64,
 }
 
-/// Maximum dofs of one element: 18 velocity + 4 pressure + 16 G + 3 rigid for up to 2 particles.
-const MAX_EL_DOFS: usize = 44;
+/// Maximum dofs of one element: 18 velocity + 4 pressure + 16 G + 3 rigid for up to 4 particle pieces.
+const MAX_EL_DOFS: usize = 50;
 /// Relative residual accepted from the direct solver (a few hundred ulps of the matrix norm).
 const RESIDUAL_TOL: f64 = 1e-10;
 
@@ -373,6 +373,10 @@ impl Stokes {
                 ElementCut::Cut(c) => Some(c),
             };
             let ndc = nd + 3 * cut.map_or(0, |c| c.particles.len());
+            assert!(
+                ndc <= MAX_EL_DOFS,
+                "element {e} is cut by more than 4 particle pieces"
+            );
             let ke = &mut ke[..ndc * ndc];
             let fe = &mut fe[..ndc];
             ke.iter_mut().for_each(|v| *v = 0.0);
