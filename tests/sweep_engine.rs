@@ -77,7 +77,10 @@ fn scalar<T: rusqlite::types::FromSql>(store: &Store, sql: &str) -> T {
 #[test]
 fn outcomes_divergence_and_rerun() {
     let dir = scratch("outcomes");
-    let sweep = parse(&sweep_text("outcomes", "[1, 2, 3, 4, 5]", "[2, 3]", 3000), &dir);
+    let sweep = parse(
+        &sweep_text("outcomes", "[1, 2, 3, 4, 5]", "[2, 3]", 3000),
+        &dir,
+    );
     let cases = expand(&sweep).unwrap();
     let db = dir.join("r.db");
     let s = run_sweep(&sweep, &cases, &FakeRunner::new(by_wi), &opts(&db, 2)).unwrap();
@@ -109,16 +112,26 @@ fn outcomes_divergence_and_rerun() {
     // Strings stop early (t ≈ 10 of 30) and their samples are stored every 5 steps plus the last one.
     let t: f64 = scalar(&store, "SELECT MAX(t_reached) FROM cases WHERE wi = 2");
     assert!(t < 20.0, "early stop: t = {t}");
-    let steps: i64 = scalar(&store, "SELECT MIN(step) FROM samples JOIN cases c ON c.id = case_id WHERE c.wi = 2");
+    let steps: i64 = scalar(
+        &store,
+        "SELECT MIN(step) FROM samples JOIN cases c ON c.id = case_id WHERE c.wi = 2",
+    );
     assert_eq!(steps, 5);
     // A diverged case keeps its last state before the failure (step 4), not a multiple of 5.
-    let last: i64 = scalar(&store, "SELECT MAX(step) FROM samples JOIN cases c ON c.id = case_id WHERE c.wi = 3");
+    let last: i64 = scalar(
+        &store,
+        "SELECT MAX(step) FROM samples JOIN cases c ON c.id = case_id WHERE c.wi = 3",
+    );
     assert_eq!(last, 4);
     // Table 5.2-style query.
-    let table = store.query(&QueryKind::StringFormation, Some("outcomes"), &[]).unwrap();
+    let table = store
+        .query(&QueryKind::StringFormation, Some("outcomes"), &[])
+        .unwrap();
     let csv = table.render(Format::Csv);
     assert!(csv.starts_with("Wi,N=2,N=3\n1.0,-,-\n2.0,+,+\n"), "{csv}");
-    let filtered = store.query(&QueryKind::Cases, None, &["wi=2".parse().unwrap()]).unwrap();
+    let filtered = store
+        .query(&QueryKind::Cases, None, &["wi=2".parse().unwrap()])
+        .unwrap();
     assert_eq!(filtered.rows.len(), 2);
     // Rerun: nothing to do.
     let again = run_sweep(&sweep, &cases, &FakeRunner::new(by_wi), &opts(&db, 2)).unwrap();
@@ -132,7 +145,9 @@ fn outcomes_divergence_and_rerun() {
 #[test]
 #[ignore = "child process of kill_minus_9_then_resume"]
 fn kill_child() {
-    let Ok(dir) = std::env::var(CHILD_ENV) else { return };
+    let Ok(dir) = std::env::var(CHILD_ENV) else {
+        return;
+    };
     let dir = PathBuf::from(dir);
     let sweep = SweepSpec::from_file(&dir.join("sweep.toml")).unwrap();
     let cases = expand(&sweep).unwrap();
@@ -148,7 +163,14 @@ fn kill_minus_9_then_resume() {
     let cases = expand(&sweep).unwrap();
     let db = dir.join("r.db");
     let mut child = std::process::Command::new(std::env::current_exe().unwrap())
-        .args(["--exact", "kill_child", "--ignored", "--nocapture", "--test-threads", "1"])
+        .args([
+            "--exact",
+            "kill_child",
+            "--ignored",
+            "--nocapture",
+            "--test-threads",
+            "1",
+        ])
         .env(CHILD_ENV, &dir)
         .stdout(std::process::Stdio::null())
         .spawn()
@@ -158,13 +180,24 @@ fn kill_minus_9_then_resume() {
         std::thread::sleep(Duration::from_millis(50));
         let done: i64 = Store::open(&db)
             .ok()
-            .and_then(|s| s.connection().query_row("SELECT COUNT(*) FROM cases WHERE status = 'done'", [], |r| r.get(0)).ok())
+            .and_then(|s| {
+                s.connection()
+                    .query_row(
+                        "SELECT COUNT(*) FROM cases WHERE status = 'done'",
+                        [],
+                        |r| r.get(0),
+                    )
+                    .ok()
+            })
             .unwrap_or(0);
         if done >= 3 {
             break;
         }
         assert!(start.elapsed() < CHILD_DEADLINE, "child made no progress");
-        assert!(child.try_wait().unwrap().is_none(), "child exited before it was killed");
+        assert!(
+            child.try_wait().unwrap().is_none(),
+            "child exited before it was killed"
+        );
     }
     child.kill().unwrap(); // SIGKILL
     child.wait().unwrap();
@@ -172,15 +205,31 @@ fn kill_minus_9_then_resume() {
     let store = Store::open(&db).unwrap();
     assert_eq!(store.integrity_check().unwrap(), "ok");
     let hashes = |status: &str| -> BTreeSet<String> {
-        let mut st = store.connection().prepare("SELECT case_hash FROM cases WHERE status = ?1").unwrap();
-        st.query_map([status], |r| r.get(0)).unwrap().map(Result::unwrap).collect()
+        let mut st = store
+            .connection()
+            .prepare("SELECT case_hash FROM cases WHERE status = ?1")
+            .unwrap();
+        st.query_map([status], |r| r.get(0))
+            .unwrap()
+            .map(Result::unwrap)
+            .collect()
     };
     let done_before = hashes("done");
     let running_before = hashes("running");
-    assert!(done_before.len() >= 3 && done_before.len() < cases.len(), "{}", done_before.len());
+    assert!(
+        done_before.len() >= 3 && done_before.len() < cases.len(),
+        "{}",
+        done_before.len()
+    );
     let finished_at_before: Vec<String> = {
-        let mut st = store.connection().prepare("SELECT finished_at FROM cases WHERE status = 'done' ORDER BY case_hash").unwrap();
-        st.query_map([], |r| r.get(0)).unwrap().map(Result::unwrap).collect()
+        let mut st = store
+            .connection()
+            .prepare("SELECT finished_at FROM cases WHERE status = 'done' ORDER BY case_hash")
+            .unwrap();
+        st.query_map([], |r| r.get(0))
+            .unwrap()
+            .map(Result::unwrap)
+            .collect()
     };
 
     // Resume in-process, recording which cases the runner is asked to run.
@@ -194,18 +243,35 @@ fn kill_minus_9_then_resume() {
     assert_eq!(s.reset, running_before.len(), "in-flight cases are reset");
     let ran: BTreeSet<String> = ran.lock().unwrap().iter().cloned().collect();
     let all: BTreeSet<String> = cases.iter().map(|c| c.id.clone()).collect();
-    assert_eq!(ran, &all - &done_before, "exactly the unfinished cases are run");
+    assert_eq!(
+        ran,
+        &all - &done_before,
+        "exactly the unfinished cases are run"
+    );
     assert!(running_before.is_subset(&ran));
     assert_eq!(store.integrity_check().unwrap(), "ok");
     let rows: i64 = scalar(&store, "SELECT COUNT(*) FROM cases");
     let outcomes: i64 = scalar(&store, "SELECT COUNT(*) FROM outcomes");
     let distinct: i64 = scalar(&store, "SELECT COUNT(DISTINCT case_id) FROM outcomes");
-    assert_eq!((rows, outcomes, distinct), (12, 12, 12), "every case exactly once");
+    assert_eq!(
+        (rows, outcomes, distinct),
+        (12, 12, 12),
+        "every case exactly once"
+    );
     let finished_at_after: Vec<String> = {
-        let mut st = store.connection().prepare("SELECT finished_at FROM cases WHERE case_hash = ?1").unwrap();
-        done_before.iter().map(|h| st.query_row([h], |r| r.get(0)).unwrap()).collect()
+        let mut st = store
+            .connection()
+            .prepare("SELECT finished_at FROM cases WHERE case_hash = ?1")
+            .unwrap();
+        done_before
+            .iter()
+            .map(|h| st.query_row([h], |r| r.get(0)).unwrap())
+            .collect()
     };
-    assert_eq!(finished_at_before, finished_at_after, "finished cases are untouched");
+    assert_eq!(
+        finished_at_before, finished_at_after,
+        "finished cases are untouched"
+    );
     // Every case has its 8 samples (steps 5..40) per particle, no leftovers from the killed attempt.
     let bad: i64 = scalar(
         &store,
@@ -235,7 +301,12 @@ fn two_sweeps_write_one_database_at_once() {
     let counts = store.counts(None).unwrap();
     assert_eq!(counts.len(), 2);
     for c in counts {
-        assert_eq!((c.total, c.done, c.running, c.pending, c.failed), (6, 6, 0, 0, 0), "{}", c.name);
+        assert_eq!(
+            (c.total, c.done, c.running, c.pending, c.failed),
+            (6, 6, 0, 0, 0),
+            "{}",
+            c.name
+        );
     }
     let outcomes: i64 = scalar(&store, "SELECT COUNT(*) FROM outcomes");
     assert_eq!(outcomes, 10);

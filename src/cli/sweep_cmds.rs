@@ -24,7 +24,7 @@ const EXIT_INVALID: u8 = 2;
 pub struct SweepArgs {
     /// Sweep file (TOML, or JSON with a .json extension).
     pub file: PathBuf,
-    /// Results database [default: results/<sweep name>.db].
+    /// Results database (default: `results/<sweep name>.db`).
     #[arg(long)]
     pub db: Option<PathBuf>,
     /// Cases run at once [default: number of cores].
@@ -97,7 +97,11 @@ pub fn run_sweep(args: &SweepArgs) -> anyhow::Result<ExitCode> {
 }
 
 /// Handler of `xpflow sweep` with a given runner, writing listings to `out` (testable).
-pub fn run_sweep_with(args: &SweepArgs, runner: &dyn CaseRunner, out: &mut dyn Write) -> anyhow::Result<ExitCode> {
+pub fn run_sweep_with(
+    args: &SweepArgs,
+    runner: &dyn CaseRunner,
+    out: &mut dyn Write,
+) -> anyhow::Result<ExitCode> {
     let spec = match SweepSpec::from_file(&args.file) {
         Ok(s) => s,
         Err(e) => return invalid(&e),
@@ -107,15 +111,25 @@ pub fn run_sweep_with(args: &SweepArgs, runner: &dyn CaseRunner, out: &mut dyn W
         Err(e) => return invalid(&e),
     };
     if args.dry_run {
-        let mut t = Table { columns: vec!["index".into(), "id".into(), "label".into()], rows: Vec::new() };
+        let mut t = Table {
+            columns: vec!["index".into(), "id".into(), "label".into()],
+            rows: Vec::new(),
+        };
         for c in &cases {
-            t.rows.push(vec![c.index.into(), c.id.clone().into(), c.label.clone().into()]);
+            t.rows.push(vec![
+                c.index.into(),
+                c.id.clone().into(),
+                c.label.clone().into(),
+            ]);
         }
         write!(out, "{}", t.render(Format::Table))?;
         writeln!(out, "{} cases in sweep {}", cases.len(), spec.name)?;
         return Ok(ExitCode::SUCCESS);
     }
-    let db = args.db.clone().unwrap_or_else(|| Path::new("results").join(format!("{}.db", spec.name)));
+    let db = args
+        .db
+        .clone()
+        .unwrap_or_else(|| Path::new("results").join(format!("{}.db", spec.name)));
     let mut opts = SweepOptions::new(db);
     if let Some(j) = args.jobs {
         opts.jobs = j.max(1);
@@ -136,7 +150,11 @@ pub fn run_sweep_with(args: &SweepArgs, runner: &dyn CaseRunner, out: &mut dyn W
                     opts.db.display()
                 )?;
             }
-            Ok(if summary.failed > 0 { ExitCode::FAILURE } else { ExitCode::SUCCESS })
+            Ok(if summary.failed > 0 {
+                ExitCode::FAILURE
+            } else {
+                ExitCode::SUCCESS
+            })
         }
         Err(e @ SweepError::Unsupported { .. }) => {
             eprintln!("error: {}: {e}; nothing was run", args.file.display());
@@ -169,7 +187,13 @@ pub fn run_query_to(args: &QueryArgs, out: &mut dyn Write) -> anyhow::Result<Exi
         QueryWhat::Cases => QueryKind::Cases,
         QueryWhat::FinalR => match FILTER_COLUMNS.iter().find(|c| **c == args.by) {
             Some(c) => QueryKind::FinalRStar(c),
-            None => return invalid(&format!("--by {}: use one of {}", args.by, FILTER_COLUMNS.join(", "))),
+            None => {
+                return invalid(&format!(
+                    "--by {}: use one of {}",
+                    args.by,
+                    FILTER_COLUMNS.join(", ")
+                ))
+            }
         },
         QueryWhat::Trajectory => match &args.case {
             Some(c) => QueryKind::Trajectory(c.clone()),
@@ -199,7 +223,11 @@ pub fn run_status(args: &StatusArgs) -> anyhow::Result<ExitCode> {
 pub fn run_status_to(args: &StatusArgs, out: &mut dyn Write) -> anyhow::Result<ExitCode> {
     let dbs: Vec<PathBuf> = if args.db.is_empty() {
         let mut v: Vec<PathBuf> = std::fs::read_dir("results")
-            .map(|d| d.filter_map(|e| e.ok().map(|e| e.path())).filter(|p| p.extension().is_some_and(|e| e == "db")).collect())
+            .map(|d| {
+                d.filter_map(|e| e.ok().map(|e| e.path()))
+                    .filter(|p| p.extension().is_some_and(|e| e == "db"))
+                    .collect()
+            })
             .unwrap_or_default();
         v.sort();
         v
@@ -207,7 +235,11 @@ pub fn run_status_to(args: &StatusArgs, out: &mut dyn Write) -> anyhow::Result<E
         args.db.clone()
     };
     let mut t = Table {
-        columns: ["database", "sweep", "cases", "done", "running", "failed", "pending"].map(String::from).to_vec(),
+        columns: [
+            "database", "sweep", "cases", "done", "running", "failed", "pending",
+        ]
+        .map(String::from)
+        .to_vec(),
         rows: Vec::new(),
     };
     for db in &dbs {

@@ -181,7 +181,10 @@ pub struct Output {
 
 impl Default for Output {
     fn default() -> Self {
-        Output { sample_every: default_sample_every(), snapshot_every: 0 }
+        Output {
+            sample_every: default_sample_every(),
+            snapshot_every: 0,
+        }
     }
 }
 
@@ -233,13 +236,17 @@ impl CaseSpec {
 
     /// Initial particle centres in the order the particles are numbered everywhere else.
     pub fn initial_positions(&self) -> Vec<[f64; 2]> {
-        let Some(p) = &self.particles else { return Vec::new() };
+        let Some(p) = &self.particles else {
+            return Vec::new();
+        };
         match &p.layout {
             Layout::String { n, lx, ly } => layout::string_positions(*n, *lx, *ly),
             Layout::Pair { lx, ly } => layout::pair_positions(*lx, *ly),
             Layout::Explicit { positions } => positions.clone(),
             Layout::Couette { r0_star, angle } => match self.geometry {
-                Geometry::Couette { r1, r2, .. } => vec![layout::couette_position(r1, r2, *r0_star, *angle)],
+                Geometry::Couette { r1, r2, .. } => {
+                    vec![layout::couette_position(r1, r2, *r0_star, *angle)]
+                }
                 // Validation rejects a Couette layout in another geometry; place it at the origin meanwhile.
                 _ => vec![[0.0, 0.0]],
             },
@@ -256,8 +263,16 @@ impl CaseSpec {
     pub fn characteristic_rate(&self) -> f64 {
         match self.geometry {
             Geometry::ConfinedShear { h, wall_speed, .. } => wall_speed / h,
-            Geometry::Couette { r1, r2, omega_inner } => omega_inner * r1 / (r2 - r1),
-            Geometry::CylinderChannel { radius, mean_velocity, .. } => mean_velocity / radius,
+            Geometry::Couette {
+                r1,
+                r2,
+                omega_inner,
+            } => omega_inner * r1 / (r2 - r1),
+            Geometry::CylinderChannel {
+                radius,
+                mean_velocity,
+                ..
+            } => mean_velocity / radius,
         }
     }
 
@@ -303,7 +318,10 @@ impl CaseSpec {
     /// Initial dimensionless radial position r0* of the first particle (Couette).
     pub fn r0_star(&self) -> Option<f64> {
         match self.geometry {
-            Geometry::Couette { r1, r2, .. } => self.initial_positions().first().map(|&p| layout::r_star(r1, r2, p)),
+            Geometry::Couette { r1, r2, .. } => self
+                .initial_positions()
+                .first()
+                .map(|&p| layout::r_star(r1, r2, p)),
             _ => None,
         }
     }
@@ -319,7 +337,9 @@ impl CaseSpec {
     /// Channel height H and length L (channel geometries).
     pub fn channel(&self) -> Option<(f64, f64)> {
         match self.geometry {
-            Geometry::ConfinedShear { h, l, .. } | Geometry::CylinderChannel { h, l, .. } => Some((h, l)),
+            Geometry::ConfinedShear { h, l, .. } | Geometry::CylinderChannel { h, l, .. } => {
+                Some((h, l))
+            }
             Geometry::Couette { .. } => None,
         }
     }

@@ -16,7 +16,10 @@ pub struct SpecError {
 impl SpecError {
     /// Error for `field` with a message saying what to change.
     pub fn new(field: impl Into<String>, message: impl Into<String>) -> Self {
-        SpecError { field: field.into(), message: message.into() }
+        SpecError {
+            field: field.into(),
+            message: message.into(),
+        }
     }
 }
 
@@ -89,7 +92,11 @@ pub(crate) fn json_path_at_line(pretty: &str, line: usize) -> String {
             .strip_prefix('"')
             .and_then(|rest| rest.find("\":").map(|end| rest[..end].to_string()));
         if i + 1 == line {
-            let mut path: Vec<String> = stack.iter().take(depth.saturating_sub(1)).cloned().collect();
+            let mut path: Vec<String> = stack
+                .iter()
+                .take(depth.saturating_sub(1))
+                .cloned()
+                .collect();
             match key {
                 Some(k) => path.push(k),
                 // A closing brace or an array element: the enclosing key.

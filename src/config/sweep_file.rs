@@ -60,9 +60,13 @@ pub struct Axis {
 impl SweepSpec {
     /// Reads and parses a sweep file (`.json` as JSON, anything else as TOML).
     pub fn from_file(path: &Path) -> Result<SweepSpec, ConfigError> {
-        let text =
-            std::fs::read_to_string(path).map_err(|source| ConfigError::Io { file: path.to_path_buf(), source })?;
-        let is_json = path.extension().is_some_and(|e| e.eq_ignore_ascii_case("json"));
+        let text = std::fs::read_to_string(path).map_err(|source| ConfigError::Io {
+            file: path.to_path_buf(),
+            source,
+        })?;
+        let is_json = path
+            .extension()
+            .is_some_and(|e| e.eq_ignore_ascii_case("json"));
         Self::from_str(&text, is_json, path)
     }
 
@@ -96,33 +100,59 @@ impl SweepSpec {
             message,
         };
         let Some(top) = raw.as_object() else {
-            return Err(err("", "a sweep file is a table with name, base and axes".into()));
+            return Err(err(
+                "",
+                "a sweep file is a table with name, base and axes".into(),
+            ));
         };
         if let Some(k) = top.keys().find(|k| !TOP_LEVEL_KEYS.contains(&k.as_str())) {
-            return Err(err(k, format!("unknown key; expected one of {}", TOP_LEVEL_KEYS.join(", "))));
+            return Err(err(
+                k,
+                format!("unknown key; expected one of {}", TOP_LEVEL_KEYS.join(", ")),
+            ));
         }
         let name = match top.get("name") {
             Some(Value::String(s)) if is_valid_name(s) => s.clone(),
             Some(Value::String(s)) => {
-                return Err(err("name", format!("`{s}` may only use letters, digits, `_`, `-` and `.`")));
+                return Err(err(
+                    "name",
+                    format!("`{s}` may only use letters, digits, `_`, `-` and `.`"),
+                ));
             }
             Some(v) => return Err(err("name", format!("invalid type: {v}, expected a string"))),
-            None => return Err(err("name", "missing; add name = \"...\" (it names the database)".into())),
+            None => {
+                return Err(err(
+                    "name",
+                    "missing; add name = \"...\" (it names the database)".into(),
+                ))
+            }
         };
         let description = match top.get("description") {
             None => String::new(),
             Some(Value::String(s)) => s.clone(),
-            Some(v) => return Err(err("description", format!("invalid type: {v}, expected a string"))),
+            Some(v) => {
+                return Err(err(
+                    "description",
+                    format!("invalid type: {v}, expected a string"),
+                ))
+            }
         };
         let base = match top.get("base") {
             Some(v @ Value::Object(_)) => v.clone(),
             Some(v) => return Err(err("base", format!("invalid type: {v}, expected a table"))),
-            None => return Err(err("base", "missing; add a [base] table with the case parameters".into())),
+            None => {
+                return Err(err(
+                    "base",
+                    "missing; add a [base] table with the case parameters".into(),
+                ))
+            }
         };
         let mut axes = Vec::new();
         match top.get("axes") {
             None => {}
-            Some(Value::Object(m)) => flatten_axes(m, "", &mut axes).map_err(|(f, m)| err(&format!("axes.{f}"), m))?,
+            Some(Value::Object(m)) => {
+                flatten_axes(m, "", &mut axes).map_err(|(f, m)| err(&format!("axes.{f}"), m))?
+            }
             Some(v) => return Err(err("axes", format!("invalid type: {v}, expected a table"))),
         }
         let mut zips = Vec::new();
@@ -131,12 +161,18 @@ impl SweepSpec {
             Some(Value::Array(groups)) => {
                 for (g, group) in groups.iter().enumerate() {
                     let Value::Object(m) = group else {
-                        return Err(err(&format!("zip[{g}]"), "each zip group is a table of lists".into()));
+                        return Err(err(
+                            &format!("zip[{g}]"),
+                            "each zip group is a table of lists".into(),
+                        ));
                     };
                     let mut axes = Vec::new();
-                    flatten_axes(m, "", &mut axes).map_err(|(f, m)| err(&format!("zip[{g}].{f}"), m))?;
+                    flatten_axes(m, "", &mut axes)
+                        .map_err(|(f, m)| err(&format!("zip[{g}].{f}"), m))?;
                     if let Some(first) = axes.first() {
-                        if let Some(bad) = axes.iter().find(|a| a.values.len() != first.values.len()) {
+                        if let Some(bad) =
+                            axes.iter().find(|a| a.values.len() != first.values.len())
+                        {
                             return Err(err(
                                 &format!("zip[{g}].{}", bad.path),
                                 format!(
@@ -152,26 +188,52 @@ impl SweepSpec {
                     zips.push(axes);
                 }
             }
-            Some(v) => return Err(err("zip", format!("invalid type: {v}, expected [[zip]] tables"))),
+            Some(v) => {
+                return Err(err(
+                    "zip",
+                    format!("invalid type: {v}, expected [[zip]] tables"),
+                ))
+            }
         }
         let all: Vec<&Axis> = axes.iter().chain(zips.iter().flatten()).collect();
         for (i, a) in all.iter().enumerate() {
             if all[..i].iter().any(|b| b.path == a.path) {
-                return Err(err(&a.path, "this field is swept twice; keep one axis per field".into()));
+                return Err(err(
+                    &a.path,
+                    "this field is swept twice; keep one axis per field".into(),
+                ));
             }
         }
-        Ok(SweepSpec { file: file.to_path_buf(), name, description, base, axes, zips, raw })
+        Ok(SweepSpec {
+            file: file.to_path_buf(),
+            name,
+            description,
+            base,
+            axes,
+            zips,
+            raw,
+        })
     }
 }
 
 fn is_valid_name(s: &str) -> bool {
-    !s.is_empty() && s.chars().all(|c| c.is_ascii_alphanumeric() || matches!(c, '_' | '-' | '.'))
+    !s.is_empty()
+        && s.chars()
+            .all(|c| c.is_ascii_alphanumeric() || matches!(c, '_' | '-' | '.'))
 }
 
 /// Collects axes from a (possibly nested) table: arrays and range tables are leaves.
-fn flatten_axes(m: &Map<String, Value>, prefix: &str, out: &mut Vec<Axis>) -> Result<(), (String, String)> {
+fn flatten_axes(
+    m: &Map<String, Value>,
+    prefix: &str,
+    out: &mut Vec<Axis>,
+) -> Result<(), (String, String)> {
     for (k, v) in m {
-        let path = if prefix.is_empty() { k.clone() } else { format!("{prefix}.{k}") };
+        let path = if prefix.is_empty() {
+            k.clone()
+        } else {
+            format!("{prefix}.{k}")
+        };
         match v {
             Value::Array(values) => {
                 if values.is_empty() {
@@ -196,7 +258,9 @@ fn flatten_axes(m: &Map<String, Value>, prefix: &str, out: &mut Vec<Axis>) -> Re
 }
 
 fn is_range(m: &Map<String, Value>) -> bool {
-    m.contains_key("start") && m.keys().all(|k| matches!(k.as_str(), "start" | "stop" | "step" | "num"))
+    m.contains_key("start")
+        && m.keys()
+            .all(|k| matches!(k.as_str(), "start" | "stop" | "step" | "num"))
 }
 
 /// Values of `{ start, stop, step }` (stop inclusive; integers stay integers) or `{ start, stop, num }`.
@@ -204,12 +268,17 @@ fn expand_range(m: &Map<String, Value>) -> Result<Vec<Value>, String> {
     let get = |k: &str| -> Result<Option<f64>, String> {
         match m.get(k) {
             None => Ok(None),
-            Some(v) => v.as_f64().map(Some).ok_or_else(|| format!("range `{k}` must be a number, got {v}")),
+            Some(v) => v
+                .as_f64()
+                .map(Some)
+                .ok_or_else(|| format!("range `{k}` must be a number, got {v}")),
         }
     };
     let start = get("start")?.ok_or("range needs start")?;
     let stop = get("stop")?.ok_or("range needs stop")?;
-    let all_int = ["start", "stop", "step"].iter().all(|k| m.get(*k).is_none_or(Value::is_i64));
+    let all_int = ["start", "stop", "step"]
+        .iter()
+        .all(|k| m.get(*k).is_none_or(Value::is_i64));
     match (get("step")?, m.get("num")) {
         (Some(step), None) => {
             if !(step != 0.0 && (stop - start) * step >= 0.0 && step.is_finite()) {
@@ -217,7 +286,9 @@ fn expand_range(m: &Map<String, Value>) -> Result<Vec<Value>, String> {
             }
             let count = ((stop - start) / step + RANGE_STOP_SLACK).floor() as usize + 1;
             if count > MAX_RANGE_VALUES {
-                return Err(format!("range gives {count} values, more than {MAX_RANGE_VALUES}"));
+                return Err(format!(
+                    "range gives {count} values, more than {MAX_RANGE_VALUES}"
+                ));
             }
             Ok((0..count)
                 .map(|k| {
@@ -231,13 +302,20 @@ fn expand_range(m: &Map<String, Value>) -> Result<Vec<Value>, String> {
                 .collect())
         }
         (None, Some(num)) => {
-            let num = num.as_u64().filter(|&n| n >= 1).ok_or("range `num` must be an integer ≥ 1")? as usize;
+            let num = num
+                .as_u64()
+                .filter(|&n| n >= 1)
+                .ok_or("range `num` must be an integer ≥ 1")? as usize;
             if num > MAX_RANGE_VALUES {
                 return Err(format!("num = {num} is more than {MAX_RANGE_VALUES}"));
             }
             Ok((0..num)
                 .map(|k| {
-                    let x = if num == 1 { start } else { start + (stop - start) * k as f64 / (num - 1) as f64 };
+                    let x = if num == 1 {
+                        start
+                    } else {
+                        start + (stop - start) * k as f64 / (num - 1) as f64
+                    };
                     Value::from(x)
                 })
                 .collect())
@@ -270,8 +348,15 @@ mod tests {
         .unwrap();
         let get = |p: &str| s.axes.iter().find(|a| a.path == p).unwrap().values.clone();
         assert_eq!(get("fluid.wi"), vec![Value::from(1), Value::from(2)]);
-        assert_eq!(get("numerics.dt").len(), 3, "stop is inclusive despite rounding");
-        assert_eq!(get("particles.layout.string.n"), vec![Value::from(2), Value::from(4), Value::from(6)]);
+        assert_eq!(
+            get("numerics.dt").len(),
+            3,
+            "stop is inclusive despite rounding"
+        );
+        assert_eq!(
+            get("particles.layout.string.n"),
+            vec![Value::from(2), Value::from(4), Value::from(6)]
+        );
         assert_eq!(get("fluid.beta").len(), 4);
     }
 
@@ -285,8 +370,12 @@ mod tests {
         assert_eq!(e.field(), Some("zip[0].b"));
         let e = parse("name = \"a b\"\n[base]").unwrap_err();
         assert_eq!(e.field(), Some("name"));
-        let e = parse("name = \"x\"\n[base]\n[axes]\nw = { start = 0, stop = 1, step = -1 }").unwrap_err();
+        let e = parse("name = \"x\"\n[base]\n[axes]\nw = { start = 0, stop = 1, step = -1 }")
+            .unwrap_err();
         assert_eq!(e.field(), Some("axes.w"));
-        assert!(matches!(parse("name = = 1").unwrap_err(), ConfigError::Syntax { .. }));
+        assert!(matches!(
+            parse("name = = 1").unwrap_err(),
+            ConfigError::Syntax { .. }
+        ));
     }
 }

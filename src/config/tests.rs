@@ -72,9 +72,18 @@ fn unknown_keys_and_wrong_types_name_the_field() {
     assert_eq!(e.field, "fluid.wii");
     assert!(e.message.contains("unknown field"), "{}", e.message);
 
-    assert_eq!(field_of(set(shear(), "/fluid/wi", json!("two"))), "fluid.wi");
-    assert_eq!(field_of(set(shear(), "/numerics/mesh", json!([1, "a"]))), "numerics.mesh");
-    assert_eq!(field_of(set(shear(), "/particles/layout/string/n", json!(2.5))), "particles.layout.string.n");
+    assert_eq!(
+        field_of(set(shear(), "/fluid/wi", json!("two"))),
+        "fluid.wi"
+    );
+    assert_eq!(
+        field_of(set(shear(), "/numerics/mesh", json!([1, "a"]))),
+        "numerics.mesh"
+    );
+    assert_eq!(
+        field_of(set(shear(), "/particles/layout/string/n", json!(2.5))),
+        "particles.layout.string.n"
+    );
     let mut v = shear();
     v["numerics"].as_object_mut().unwrap().remove("dt");
     assert_eq!(field_of(v), "numerics");
@@ -86,29 +95,79 @@ fn unknown_keys_and_wrong_types_name_the_field() {
 #[test]
 fn impossible_physics_is_rejected() {
     assert_eq!(field_of(set(shear(), "/fluid/wi", json!(-1.0))), "fluid.wi");
-    assert_eq!(field_of(set(shear(), "/fluid/alpha", json!(1.0))), "fluid.alpha");
-    assert_eq!(field_of(set(shear(), "/fluid/alpha", json!(-0.1))), "fluid.alpha");
-    assert_eq!(field_of(set(shear(), "/fluid/beta", json!(1.0))), "fluid.beta");
-    assert_eq!(field_of(set(shear(), "/numerics/dt", json!(0.0))), "numerics.dt");
-    assert_eq!(field_of(set(shear(), "/numerics/dt", json!(-0.1))), "numerics.dt");
-    assert_eq!(field_of(set(shear(), "/particles/layout/string/n", json!(0))), "particles.layout.string.n");
-    assert_eq!(field_of(set(shear(), "/particles/radius", json!(0.5))), "particles.radius");
+    assert_eq!(
+        field_of(set(shear(), "/fluid/alpha", json!(1.0))),
+        "fluid.alpha"
+    );
+    assert_eq!(
+        field_of(set(shear(), "/fluid/alpha", json!(-0.1))),
+        "fluid.alpha"
+    );
+    assert_eq!(
+        field_of(set(shear(), "/fluid/beta", json!(1.0))),
+        "fluid.beta"
+    );
+    assert_eq!(
+        field_of(set(shear(), "/numerics/dt", json!(0.0))),
+        "numerics.dt"
+    );
+    assert_eq!(
+        field_of(set(shear(), "/numerics/dt", json!(-0.1))),
+        "numerics.dt"
+    );
+    assert_eq!(
+        field_of(set(shear(), "/particles/layout/string/n", json!(0))),
+        "particles.layout.string.n"
+    );
+    assert_eq!(
+        field_of(set(shear(), "/particles/radius", json!(0.5))),
+        "particles.radius"
+    );
     // ly = 0.45 puts the end particles through the walls at |y| = 0.45 > H/2 − a.
-    assert_eq!(field_of(set(shear(), "/particles/layout/string/ly", json!(0.45))), "particles.layout.string");
+    assert_eq!(
+        field_of(set(shear(), "/particles/layout/string/ly", json!(0.45))),
+        "particles.layout.string"
+    );
     // lx = 0.1, ly = 0.05: centres 0.11 apart, less than 2a = 0.2.
-    let v = set(shear(), "/particles/layout/string", json!({"n": 3, "lx": 0.1, "ly": 0.05}));
+    let v = set(
+        shear(),
+        "/particles/layout/string",
+        json!({"n": 3, "lx": 0.1, "ly": 0.05}),
+    );
     let e = CaseSpec::from_value(v).unwrap_err();
     assert!(e.message.contains("overlap"), "{}", e.message);
     // Periodic images: a particle at each end of the channel overlaps through the boundary.
-    let v = set(shear(), "/particles/layout", json!({"explicit": {"positions": [[-1.95, 0.0], [1.95, 0.0]]}}));
+    let v = set(
+        shear(),
+        "/particles/layout",
+        json!({"explicit": {"positions": [[-1.95, 0.0], [1.95, 0.0]]}}),
+    );
     assert_eq!(field_of(v), "particles.layout.explicit");
-    let v = set(shear(), "/fluid", json!({"model": "newtonian", "wi": 1.0, "beta": 0.0}));
+    let v = set(
+        shear(),
+        "/fluid",
+        json!({"model": "newtonian", "wi": 1.0, "beta": 0.0}),
+    );
     assert_eq!(field_of(v), "fluid.wi");
-    let v = set(shear(), "/fluid", json!({"model": "oldroyd_b", "wi": 1.0, "alpha": 0.1, "beta": 0.1}));
+    let v = set(
+        shear(),
+        "/fluid",
+        json!({"model": "oldroyd_b", "wi": 1.0, "alpha": 0.1, "beta": 0.1}),
+    );
     assert_eq!(field_of(v), "fluid.alpha");
     // Couette: r0* outside [ε/2, 1 − ε/2].
-    assert_eq!(field_of(set(couette(), "/particles/layout/couette/r0_star", json!(0.05))), "particles.layout.couette");
-    assert_eq!(field_of(set(couette(), "/particles/eps", json!(1.2))), "particles.eps");
+    assert_eq!(
+        field_of(set(
+            couette(),
+            "/particles/layout/couette/r0_star",
+            json!(0.05)
+        )),
+        "particles.layout.couette"
+    );
+    assert_eq!(
+        field_of(set(couette(), "/particles/eps", json!(1.2))),
+        "particles.eps"
+    );
 }
 
 #[test]

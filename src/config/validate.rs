@@ -22,7 +22,8 @@ impl CaseSpec {
     pub fn from_value(mut value: Value) -> Result<CaseSpec, SpecError> {
         resolve_shorthands(&mut value)?;
         // Deserialize from pretty text so that serde's line number locates the field.
-        let pretty = serde_json::to_string_pretty(&value).map_err(|e| SpecError::new("", e.to_string()))?;
+        let pretty =
+            serde_json::to_string_pretty(&value).map_err(|e| SpecError::new("", e.to_string()))?;
         let spec: CaseSpec = serde_json::from_str(&pretty).map_err(|e| {
             let text = e.to_string();
             let message = match text.find(" at line ") {
@@ -50,24 +51,36 @@ impl CaseSpec {
                 positive("geometry.confined_shear.l", l)?;
                 positive("geometry.confined_shear.wall_speed", wall_speed)
             }
-            Geometry::Couette { r1, r2, omega_inner } => {
+            Geometry::Couette {
+                r1,
+                r2,
+                omega_inner,
+            } => {
                 positive("geometry.couette.r1", r1)?;
                 positive("geometry.couette.omega_inner", omega_inner)?;
-                if !(r2 > r1) {
-                    return Err(SpecError::new("geometry.couette.r2", format!("R2 = {r2} must exceed R1 = {r1}")));
+                if r2.is_nan() || r2 <= r1 {
+                    return Err(SpecError::new(
+                        "geometry.couette.r2",
+                        format!("R2 = {r2} must exceed R1 = {r1}"),
+                    ));
                 }
                 Ok(())
             }
-            Geometry::CylinderChannel { radius, h, l, mean_velocity } => {
+            Geometry::CylinderChannel {
+                radius,
+                h,
+                l,
+                mean_velocity,
+            } => {
                 positive("geometry.cylinder_channel.radius", radius)?;
                 positive("geometry.cylinder_channel.mean_velocity", mean_velocity)?;
-                if !(h > 2.0 * radius) {
+                if h.is_nan() || h <= 2.0 * radius {
                     return Err(SpecError::new(
                         "geometry.cylinder_channel.h",
                         format!("H = {h} must exceed the cylinder diameter 2R = {} (the benchmark uses H = 4R)", 2.0 * radius),
                     ));
                 }
-                if !(l > 2.0 * radius) {
+                if l.is_nan() || l <= 2.0 * radius {
                     return Err(SpecError::new(
                         "geometry.cylinder_channel.l",
                         format!("L = {l} must exceed the cylinder diameter (the benchmark uses L = 30R)"),
@@ -81,13 +94,22 @@ impl CaseSpec {
     fn validate_fluid(&self) -> Result<(), SpecError> {
         let f = &self.fluid;
         if !(f.wi >= 0.0 && f.wi.is_finite()) {
-            return Err(SpecError::new("fluid.wi", format!("Wi = {} must be a finite number ≥ 0", f.wi)));
+            return Err(SpecError::new(
+                "fluid.wi",
+                format!("Wi = {} must be a finite number ≥ 0", f.wi),
+            ));
         }
         if !(0.0..1.0).contains(&f.alpha) {
-            return Err(SpecError::new("fluid.alpha", format!("α = {} must be in [0, 1)", f.alpha)));
+            return Err(SpecError::new(
+                "fluid.alpha",
+                format!("α = {} must be in [0, 1)", f.alpha),
+            ));
         }
         if !(0.0..1.0).contains(&f.beta) {
-            return Err(SpecError::new("fluid.beta", format!("β = {} must be in [0, 1)", f.beta)));
+            return Err(SpecError::new(
+                "fluid.beta",
+                format!("β = {} must be in [0, 1)", f.beta),
+            ));
         }
         match f.model {
             Model::Newtonian if f.wi != 0.0 => Err(SpecError::new(
@@ -105,7 +127,10 @@ impl CaseSpec {
     fn validate_numerics(&self) -> Result<(), SpecError> {
         let n = &self.numerics;
         if n.mesh[0] == 0 || n.mesh[1] == 0 {
-            return Err(SpecError::new("numerics.mesh", "both element counts must be ≥ 1"));
+            return Err(SpecError::new(
+                "numerics.mesh",
+                "both element counts must be ≥ 1",
+            ));
         }
         positive("numerics.grading", n.grading)?;
         positive("numerics.dt", n.dt)?;
@@ -113,17 +138,26 @@ impl CaseSpec {
         if n.t_end < n.dt {
             return Err(SpecError::new(
                 "numerics.t_end",
-                format!("t_end = {} is shorter than one time step dt = {}", n.t_end, n.dt),
+                format!(
+                    "t_end = {} is shorter than one time step dt = {}",
+                    n.t_end, n.dt
+                ),
             ));
         }
         if n.quadtree_level > MAX_QUADTREE_LEVEL {
             return Err(SpecError::new(
                 "numerics.quadtree_level",
-                format!("level {} is more than {MAX_QUADTREE_LEVEL}; levels above 10 gain nothing", n.quadtree_level),
+                format!(
+                    "level {} is more than {MAX_QUADTREE_LEVEL}; levels above 10 gain nothing",
+                    n.quadtree_level
+                ),
             ));
         }
         if self.output.sample_every == 0 {
-            return Err(SpecError::new("output.sample_every", "must be ≥ 1 (store every k-th step)"));
+            return Err(SpecError::new(
+                "output.sample_every",
+                "must be ≥ 1 (store every k-th step)",
+            ));
         }
         Ok(())
     }
@@ -132,7 +166,10 @@ impl CaseSpec {
         let Some(p) = &self.particles else {
             return match self.geometry {
                 Geometry::CylinderChannel { .. } => Ok(()),
-                _ => Err(SpecError::new("particles", "this geometry needs a [particles] table with radius and layout")),
+                _ => Err(SpecError::new(
+                    "particles",
+                    "this geometry needs a [particles] table with radius and layout",
+                )),
             };
         };
         if matches!(self.geometry, Geometry::CylinderChannel { .. }) {
@@ -146,7 +183,10 @@ impl CaseSpec {
         match &p.layout {
             Layout::String { n, lx, ly } => {
                 if *n == 0 {
-                    return Err(SpecError::new("particles.layout.string.n", "N = 0: a string needs at least one particle"));
+                    return Err(SpecError::new(
+                        "particles.layout.string.n",
+                        "N = 0: a string needs at least one particle",
+                    ));
                 }
                 finite("particles.layout.string.lx", *lx)?;
                 finite("particles.layout.string.ly", *ly)?;
@@ -157,7 +197,10 @@ impl CaseSpec {
             }
             Layout::Explicit { positions } => {
                 if positions.is_empty() {
-                    return Err(SpecError::new("particles.layout.explicit.positions", "N = 0: give at least one centre"));
+                    return Err(SpecError::new(
+                        "particles.layout.explicit.positions",
+                        "N = 0: give at least one centre",
+                    ));
                 }
                 for (i, q) in positions.iter().enumerate() {
                     finite(&format!("particles.layout.explicit.positions[{i}]"), q[0])?;
@@ -235,7 +278,12 @@ impl CaseSpec {
 }
 
 /// Rejects pairs of particles that overlap (periodic in x with period `period`).
-fn check_pairs(positions: &[[f64; 2]], a: f64, period: Option<f64>, field: &str) -> Result<(), SpecError> {
+fn check_pairs(
+    positions: &[[f64; 2]],
+    a: f64,
+    period: Option<f64>,
+    field: &str,
+) -> Result<(), SpecError> {
     for i in 0..positions.len() {
         for j in i + 1..positions.len() {
             let gap = layout::surface_gap(positions[i], positions[j], a, period);
@@ -254,7 +302,10 @@ fn positive(field: &str, x: f64) -> Result<(), SpecError> {
     if x > 0.0 && x.is_finite() {
         Ok(())
     } else {
-        Err(SpecError::new(field, format!("must be a finite number > 0 (got {x})")))
+        Err(SpecError::new(
+            field,
+            format!("must be a finite number > 0 (got {x})"),
+        ))
     }
 }
 
@@ -262,7 +313,10 @@ fn finite(field: &str, x: f64) -> Result<(), SpecError> {
     if x.is_finite() {
         Ok(())
     } else {
-        Err(SpecError::new(field, format!("must be a finite number (got {x})")))
+        Err(SpecError::new(
+            field,
+            format!("must be a finite number (got {x})"),
+        ))
     }
 }
 
@@ -280,13 +334,24 @@ fn resolve_shorthands(value: &mut Value) -> Result<(), SpecError> {
                 c.get("r1").and_then(Value::as_f64).unwrap_or(f64::NAN),
                 c.get("r2").and_then(Value::as_f64).unwrap_or(f64::NAN),
             ),
-            None => return Err(SpecError::new("particles.eps", "ε is for Couette flow; give particles.radius instead")),
+            None => {
+                return Err(SpecError::new(
+                    "particles.eps",
+                    "ε is for Couette flow; give particles.radius instead",
+                ))
+            }
         };
         if value.pointer("/particles/radius").is_some() {
-            return Err(SpecError::new("particles.eps", "give either particles.radius or particles.eps, not both"));
+            return Err(SpecError::new(
+                "particles.eps",
+                "give either particles.radius or particles.eps, not both",
+            ));
         }
         if !(eps > 0.0 && eps < 1.0) {
-            return Err(SpecError::new("particles.eps", format!("ε = 2a/(R2 − R1) = {eps} must be in (0, 1)")));
+            return Err(SpecError::new(
+                "particles.eps",
+                format!("ε = 2a/(R2 − R1) = {eps} must be in (0, 1)"),
+            ));
         }
         if let Some(p) = value.get_mut("particles").and_then(Value::as_object_mut) {
             p.remove("eps");
@@ -302,15 +367,21 @@ fn resolve_shorthands(value: &mut Value) -> Result<(), SpecError> {
             ));
         }
         let Some(a) = value.pointer("/particles/radius").and_then(Value::as_f64) else {
-            return Err(SpecError::new("geometry.confined_shear.delta", "delta = H/2a needs particles.radius"));
+            return Err(SpecError::new(
+                "geometry.confined_shear.delta",
+                "delta = H/2a needs particles.radius",
+            ));
         };
-        if !(delta > 1.0) {
+        if delta.is_nan() || delta <= 1.0 {
             return Err(SpecError::new(
                 "geometry.confined_shear.delta",
                 format!("δ = H/2a = {delta} must exceed 1 for the particle to fit (a < H/2)"),
             ));
         }
-        if let Some(g) = value.pointer_mut("/geometry/confined_shear").and_then(Value::as_object_mut) {
+        if let Some(g) = value
+            .pointer_mut("/geometry/confined_shear")
+            .and_then(Value::as_object_mut)
+        {
             g.remove("delta");
             g.insert("h".into(), Value::from(2.0 * a * delta));
         }

@@ -173,9 +173,15 @@ impl Classifier {
         let t = self.last.as_ref().map_or(0.0, |s| s.t);
         let kind = match self.geometry {
             Geometry::Couette { r1, r2, .. } => {
-                let moved = self.last.as_ref().and_then(|s| s.particles.first()).map_or(0.0, |p| {
-                    (layout::r_star(r1, r2, [p.x, p.y]) - layout::r_star(r1, r2, self.initial[0])).abs()
-                });
+                let moved = self
+                    .last
+                    .as_ref()
+                    .and_then(|s| s.particles.first())
+                    .map_or(0.0, |p| {
+                        (layout::r_star(r1, r2, [p.x, p.y])
+                            - layout::r_star(r1, r2, self.initial[0]))
+                        .abs()
+                    });
                 if moved >= MIGRATION_MIN {
                     OutcomeKind::Migrated
                 } else {
@@ -217,14 +223,25 @@ impl Classifier {
         // Steady-state test on ω* between consecutive steps.
         let omega: Vec<f64> = ps.iter().map(|p| p.omega / self.rate).collect();
         let steady_now = self.last_omega.as_ref().is_some_and(|prev| {
-            prev.len() == omega.len() && prev.iter().zip(&omega).all(|(a, b)| (a - b).abs() < STEADY_OMEGA_TOL)
+            prev.len() == omega.len()
+                && prev
+                    .iter()
+                    .zip(&omega)
+                    .all(|(a, b)| (a - b).abs() < STEADY_OMEGA_TOL)
         });
         self.steady_steps = if steady_now { self.steady_steps + 1 } else { 0 };
         self.last_omega = Some(omega);
         let is_couette = matches!(self.geometry, Geometry::Couette { .. });
         if self.steady_steps >= STEADY_HOLD_STEPS && !is_couette && !ps.is_empty() {
-            let chained = ps.len() >= 2 && chain_gaps(&centres, a, self.period).iter().all(|g| *g < CHAIN_GAP * a);
-            return Some(if chained { OutcomeKind::String } else { OutcomeKind::Steady });
+            let chained = ps.len() >= 2
+                && chain_gaps(&centres, a, self.period)
+                    .iter()
+                    .all(|g| *g < CHAIN_GAP * a);
+            return Some(if chained {
+                OutcomeKind::String
+            } else {
+                OutcomeKind::Steady
+            });
         }
         // Pass / repel from the end particles' unwrapped x-distance.
         if let (Some(l), Some(dx0)) = (self.period, self.dx0) {
@@ -260,7 +277,10 @@ impl Classifier {
             "gaps_over_a": gaps.iter().map(|g| g / self.radius).collect::<Vec<_>>(),
         });
         if let Geometry::Couette { r1, r2, .. } = self.geometry {
-            final_state["r_star"] = json!(centres.iter().map(|c| layout::r_star(r1, r2, *c)).collect::<Vec<_>>());
+            final_state["r_star"] = json!(centres
+                .iter()
+                .map(|c| layout::r_star(r1, r2, *c))
+                .collect::<Vec<_>>());
         }
         if let Some(r) = reason {
             final_state["reason"] = json!(r);
@@ -271,21 +291,30 @@ impl Classifier {
             kind,
             string_length: (kind == OutcomeKind::String).then_some(ps.len()),
             t_decided: t,
-            mean_gap: if kind == OutcomeKind::Diverged { None } else { mean_gap },
+            mean_gap: if kind == OutcomeKind::Diverged {
+                None
+            } else {
+                mean_gap
+            },
             final_state,
         }
     }
 }
 
 fn state_is_finite(p: &ParticleState) -> bool {
-    [p.x, p.y, p.u, p.v, p.omega, p.theta].iter().all(|v| v.is_finite())
+    [p.x, p.y, p.u, p.v, p.omega, p.theta]
+        .iter()
+        .all(|v| v.is_finite())
 }
 
 /// Surface gaps between neighbours of the chain ordered by x along the string (periodic distance).
 fn chain_gaps(centres: &[[f64; 2]], a: f64, period: Option<f64>) -> Vec<f64> {
     let mut order: Vec<usize> = (0..centres.len()).collect();
     order.sort_by(|&i, &j| centres[i][0].total_cmp(&centres[j][0]));
-    order.windows(2).map(|w| layout::surface_gap(centres[w[0]], centres[w[1]], a, period)).collect()
+    order
+        .windows(2)
+        .map(|w| layout::surface_gap(centres[w[0]], centres[w[1]], a, period))
+        .collect()
 }
 
 #[cfg(test)]

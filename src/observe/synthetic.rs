@@ -33,14 +33,20 @@ pub fn sample(kind: OutcomeKind, spec: &CaseSpec, step: u64, t: f64) -> Sample {
             let (pos, omega_star) = match kind {
                 OutcomeKind::String | OutcomeKind::Steady if shear => {
                     // Chain along the initial string direction with gaps of 0.1a (String) or 4a (Steady).
-                    let gap = if kind == OutcomeKind::String { 0.1 } else { 4.0 };
+                    let gap = if kind == OutcomeKind::String {
+                        0.1
+                    } else {
+                        4.0
+                    };
                     let dir = string_direction(&init);
                     let target = [s * (2.0 + gap) * a * dir[0], s * (2.0 + gap) * a * dir[1]];
                     (lerp(target, p0, decay), 0.3 * (1.0 - decay))
                 }
                 OutcomeKind::Repel if shear => {
                     let c = 0.5 * a;
-                    let x = p0[0] - sgn(s) * (c * (std::f64::consts::PI * ts / TURN).sin() - 0.1 * c * ts / TURN);
+                    let x = p0[0]
+                        - sgn(s)
+                            * (c * (std::f64::consts::PI * ts / TURN).sin() - 0.1 * c * ts / TURN);
                     let y = p0[1] * (1.0 - 2.0 * (ts / TURN).min(1.0));
                     ([x, y], wobble)
                 }
@@ -57,7 +63,11 @@ pub fn sample(kind: OutcomeKind, spec: &CaseSpec, step: u64, t: f64) -> Sample {
                 OutcomeKind::Migrated | OutcomeKind::Steady => match spec.geometry {
                     Geometry::Couette { r1, r2, .. } => {
                         let r0 = layout::r_star(r1, r2, p0);
-                        let goal = if kind == OutcomeKind::Migrated { r0 + 0.1 * (0.5 - r0).signum() } else { r0 };
+                        let goal = if kind == OutcomeKind::Migrated {
+                            r0 + 0.1 * (0.5 - r0).signum()
+                        } else {
+                            r0
+                        };
                         let r = r0 + (goal - r0) * (1.0 - decay);
                         let phi = p0[1].atan2(p0[0]) + 0.1 * ts;
                         (layout::couette_position(r1, r2, r, phi), wobble)
@@ -67,7 +77,14 @@ pub fn sample(kind: OutcomeKind, spec: &CaseSpec, step: u64, t: f64) -> Sample {
                 OutcomeKind::Diverged if ts >= 1.0 => ([f64::NAN, f64::NAN], f64::NAN),
                 _ => (p0, wobble),
             };
-            ParticleState { x: pos[0], y: pos[1], u: 0.0, v: 0.0, omega: omega_star * rate, theta: omega_star * ts }
+            ParticleState {
+                x: pos[0],
+                y: pos[1],
+                u: 0.0,
+                v: 0.0,
+                omega: omega_star * rate,
+                theta: omega_star * ts,
+            }
         })
         .map(|mut p| {
             if let Geometry::ConfinedShear { l, .. } = spec.geometry {

@@ -56,7 +56,9 @@ fn pid_alive(pid: i64) -> bool {
     }
     match std::fs::read_to_string(format!("/proc/{pid}/stat")) {
         // The state is the first field after the parenthesised command name.
-        Ok(stat) => stat.rsplit_once(')').is_some_and(|(_, rest)| !rest.trim_start().starts_with(['Z', 'X'])),
+        Ok(stat) => stat
+            .rsplit_once(')')
+            .is_some_and(|(_, rest)| !rest.trim_start().starts_with(['Z', 'X'])),
         Err(_) => false,
     }
 }
@@ -73,7 +75,13 @@ impl Store {
                 params![sweep.name, spec, code_version(), machine()],
             )
             .map_err(&err)?;
-        self.conn.query_row("SELECT id FROM sweeps WHERE name = ?1", params![sweep.name], |r| r.get(0)).map_err(err)
+        self.conn
+            .query_row(
+                "SELECT id FROM sweeps WHERE name = ?1",
+                params![sweep.name],
+                |r| r.get(0),
+            )
+            .map_err(err)
     }
 
     /// Starts a run record (this invocation) of a sweep.
@@ -91,7 +99,10 @@ impl Store {
     /// Marks a run finished.
     pub fn finish_run(&mut self, run_id: i64) -> Result<()> {
         self.conn
-            .execute("UPDATE runs SET finished_at = strftime('%Y-%m-%dT%H:%M:%fZ', 'now') WHERE id = ?1", params![run_id])
+            .execute(
+                "UPDATE runs SET finished_at = strftime('%Y-%m-%dT%H:%M:%fZ', 'now') WHERE id = ?1",
+                params![run_id],
+            )
             .map_err(self.sql_err())?;
         Ok(())
     }
@@ -101,7 +112,10 @@ impl Store {
     pub fn add_cases(&mut self, sweep_id: i64, cases: &[PlannedCase]) -> Result<()> {
         let err = self.sql_err();
         let path = self.path.clone();
-        let tx = self.conn.transaction_with_behavior(TransactionBehavior::Immediate).map_err(&err)?;
+        let tx = self
+            .conn
+            .transaction_with_behavior(TransactionBehavior::Immediate)
+            .map_err(&err)?;
         {
             let mut insert = tx
                 .prepare(
@@ -144,8 +158,12 @@ impl Store {
                         s.numerics.dt,
                         s.numerics.t_end
                     ])
-                    .map_err(|source| super::StoreError::Sql { path: path.clone(), source })?;
-                link.execute(params![sweep_id, c.index as i64, c.label, c.id]).map_err(&err)?;
+                    .map_err(|source| super::StoreError::Sql {
+                        path: path.clone(),
+                        source,
+                    })?;
+                link.execute(params![sweep_id, c.index as i64, c.label, c.id])
+                    .map_err(&err)?;
             }
         }
         tx.commit().map_err(err)
@@ -164,12 +182,16 @@ impl Store {
                      WHERE sc.sweep_id = ?1 AND c.status = 'running'",
                 )
                 .map_err(&err)?;
-            let rows = st.query_map(params![sweep_id], |r| Ok((r.get(0)?, r.get(1)?, r.get(2)?))).map_err(&err)?;
+            let rows = st
+                .query_map(params![sweep_id], |r| Ok((r.get(0)?, r.get(1)?, r.get(2)?)))
+                .map_err(&err)?;
             rows.collect::<rusqlite::Result<_>>().map_err(&err)?
         };
         let mut reset = 0;
         for (id, owner, pid) in running {
-            let same_host = owner.as_deref().is_some_and(|o| o.rsplit_once(':').is_some_and(|(h, _)| h == host));
+            let same_host = owner
+                .as_deref()
+                .is_some_and(|o| o.rsplit_once(':').is_some_and(|(h, _)| h == host));
             let dead = match (same_host, pid) {
                 (true, Some(pid)) => !pid_alive(pid),
                 (_, None) => true,
@@ -204,9 +226,16 @@ impl Store {
     /// earlier interrupted attempt; returns the case's row id, or `None` if it is not pending.
     pub fn claim(&mut self, case_hash: &str) -> Result<Option<i64>> {
         let err = self.sql_err();
-        let tx = self.conn.transaction_with_behavior(TransactionBehavior::Immediate).map_err(&err)?;
+        let tx = self
+            .conn
+            .transaction_with_behavior(TransactionBehavior::Immediate)
+            .map_err(&err)?;
         let id: Option<i64> = tx
-            .query_row("SELECT id FROM cases WHERE case_hash = ?1 AND status = 'pending'", params![case_hash], |r| r.get(0))
+            .query_row(
+                "SELECT id FROM cases WHERE case_hash = ?1 AND status = 'pending'",
+                params![case_hash],
+                |r| r.get(0),
+            )
             .optional()
             .map_err(&err)?;
         if let Some(id) = id {
@@ -216,7 +245,11 @@ impl Store {
                 params![id, owner(), std::process::id()],
             )
             .map_err(&err)?;
-            for table in ["DELETE FROM samples WHERE case_id = ?1", "DELETE FROM outcomes WHERE case_id = ?1", "DELETE FROM snapshots WHERE case_id = ?1"] {
+            for table in [
+                "DELETE FROM samples WHERE case_id = ?1",
+                "DELETE FROM outcomes WHERE case_id = ?1",
+                "DELETE FROM snapshots WHERE case_id = ?1",
+            ] {
                 tx.execute(table, params![id]).map_err(&err)?;
             }
         }
@@ -227,7 +260,10 @@ impl Store {
     /// Writes samples of a running case (checkpoint), in one transaction.
     pub fn write_samples(&mut self, case_id: i64, samples: &[Sample]) -> Result<()> {
         let err = self.sql_err();
-        let tx = self.conn.transaction_with_behavior(TransactionBehavior::Immediate).map_err(&err)?;
+        let tx = self
+            .conn
+            .transaction_with_behavior(TransactionBehavior::Immediate)
+            .map_err(&err)?;
         insert_samples(&tx, case_id, samples).map_err(&err)?;
         tx.commit().map_err(err)
     }
@@ -246,7 +282,10 @@ impl Store {
     /// Records a finished (or failed) case in one transaction: remaining samples, outcome, status.
     pub fn finish_case(&mut self, case_id: i64, rec: &CaseRecord) -> Result<()> {
         let err = self.sql_err();
-        let tx = self.conn.transaction_with_behavior(TransactionBehavior::Immediate).map_err(&err)?;
+        let tx = self
+            .conn
+            .transaction_with_behavior(TransactionBehavior::Immediate)
+            .map_err(&err)?;
         insert_samples(&tx, case_id, &rec.samples).map_err(&err)?;
         let status = if let Some(o) = &rec.outcome {
             tx.execute(
@@ -306,14 +345,29 @@ impl Store {
     }
 }
 
-fn insert_samples(tx: &rusqlite::Transaction<'_>, case_id: i64, samples: &[Sample]) -> rusqlite::Result<()> {
+fn insert_samples(
+    tx: &rusqlite::Transaction<'_>,
+    case_id: i64,
+    samples: &[Sample],
+) -> rusqlite::Result<()> {
     let mut st = tx.prepare(
         "INSERT OR REPLACE INTO samples (case_id, step, t, particle, x, y, u, v, omega, theta)
          VALUES (?1, ?2, ?3, ?4, ?5, ?6, ?7, ?8, ?9, ?10)",
     )?;
     for s in samples {
         for (k, p) in s.particles.iter().enumerate() {
-            st.execute(params![case_id, s.step as i64, s.t, k as i64, p.x, p.y, p.u, p.v, p.omega, p.theta])?;
+            st.execute(params![
+                case_id,
+                s.step as i64,
+                s.t,
+                k as i64,
+                p.x,
+                p.y,
+                p.u,
+                p.v,
+                p.omega,
+                p.theta
+            ])?;
         }
     }
     Ok(())

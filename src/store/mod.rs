@@ -88,7 +88,13 @@ pub fn hostname() -> String {
 /// Machine description recorded with results: host, OS, architecture, available cores.
 pub fn machine() -> String {
     let cores = std::thread::available_parallelism().map_or(1, |n| n.get());
-    format!("{} {}-{} {} cores", hostname(), std::env::consts::OS, std::env::consts::ARCH, cores)
+    format!(
+        "{} {}-{} {} cores",
+        hostname(),
+        std::env::consts::OS,
+        std::env::consts::ARCH,
+        cores
+    )
 }
 
 /// A connection to a results database. Not shared between threads: open one per thread.
@@ -102,16 +108,29 @@ impl Store {
     /// to [`schema::SCHEMA_VERSION`].
     pub fn open(path: &Path) -> Result<Store> {
         if let Some(dir) = path.parent().filter(|d| !d.as_os_str().is_empty()) {
-            std::fs::create_dir_all(dir).map_err(|source| StoreError::Io { path: dir.to_path_buf(), source })?;
+            std::fs::create_dir_all(dir).map_err(|source| StoreError::Io {
+                path: dir.to_path_buf(),
+                source,
+            })?;
         }
-        let sql = |source| StoreError::Sql { path: path.to_path_buf(), source };
+        let sql = |source| StoreError::Sql {
+            path: path.to_path_buf(),
+            source,
+        };
         let conn = Connection::open(path).map_err(sql)?;
         conn.busy_timeout(BUSY_TIMEOUT).map_err(sql)?;
-        let mode: String = conn.query_row("PRAGMA journal_mode = WAL", [], |r| r.get(0)).map_err(sql)?;
+        let mode: String = conn
+            .query_row("PRAGMA journal_mode = WAL", [], |r| r.get(0))
+            .map_err(sql)?;
         debug_assert!(mode.eq_ignore_ascii_case("wal") || path.as_os_str() == ":memory:");
-        conn.pragma_update(None, "synchronous", "NORMAL").map_err(sql)?;
-        conn.pragma_update(None, "foreign_keys", "ON").map_err(sql)?;
-        let mut store = Store { conn, path: path.to_path_buf() };
+        conn.pragma_update(None, "synchronous", "NORMAL")
+            .map_err(sql)?;
+        conn.pragma_update(None, "foreign_keys", "ON")
+            .map_err(sql)?;
+        let mut store = Store {
+            conn,
+            path: path.to_path_buf(),
+        };
         store.migrate()?;
         Ok(store)
     }
@@ -130,42 +149,73 @@ impl Store {
     /// across mutable uses of the connection).
     pub(crate) fn sql_err(&self) -> impl Fn(rusqlite::Error) -> StoreError {
         let path = self.path.clone();
-        move |source| StoreError::Sql { path: path.clone(), source }
+        move |source| StoreError::Sql {
+            path: path.clone(),
+            source,
+        }
     }
 
     fn migrate(&mut self) -> Result<()> {
         let path = self.path.clone();
-        let sql = |source| StoreError::Sql { path: path.clone(), source };
-        let tx = self.conn.transaction_with_behavior(TransactionBehavior::Immediate).map_err(sql)?;
+        let sql = |source| StoreError::Sql {
+            path: path.clone(),
+            source,
+        };
+        let tx = self
+            .conn
+            .transaction_with_behavior(TransactionBehavior::Immediate)
+            .map_err(sql)?;
         tx.execute_batch(schema::CREATE).map_err(sql)?;
-        let found: Option<i64> =
-            tx.query_row("SELECT MAX(version) FROM schema_version", [], |r| r.get(0)).optional().map_err(sql)?.flatten();
+        let found: Option<i64> = tx
+            .query_row("SELECT MAX(version) FROM schema_version", [], |r| r.get(0))
+            .optional()
+            .map_err(sql)?
+            .flatten();
         match found {
             None => {
-                tx.execute("INSERT INTO schema_version (version) VALUES (?1)", params![schema::SCHEMA_VERSION])
-                    .map_err(sql)?;
+                tx.execute(
+                    "INSERT INTO schema_version (version) VALUES (?1)",
+                    params![schema::SCHEMA_VERSION],
+                )
+                .map_err(sql)?;
             }
             Some(v) if v > schema::SCHEMA_VERSION => {
-                return Err(StoreError::NewerSchema { path, found: v, supported: schema::SCHEMA_VERSION });
+                return Err(StoreError::NewerSchema {
+                    path,
+                    found: v,
+                    supported: schema::SCHEMA_VERSION,
+                });
             }
             Some(v) => {
                 for (i, m) in schema::MIGRATIONS.iter().enumerate().skip((v - 1) as usize) {
                     tx.execute_batch(m).map_err(sql)?;
-                    tx.execute("UPDATE schema_version SET version = ?1", params![i as i64 + 2]).map_err(sql)?;
+                    tx.execute(
+                        "UPDATE schema_version SET version = ?1",
+                        params![i as i64 + 2],
+                    )
+                    .map_err(sql)?;
                 }
             }
         }
         for (k, v) in [("code_version", code_version()), ("machine", machine())] {
-            tx.execute("INSERT OR IGNORE INTO meta (key, value) VALUES (?1, ?2)", params![format!("created_{k}"), v])
-                .map_err(sql)?;
-            tx.execute("INSERT OR REPLACE INTO meta (key, value) VALUES (?1, ?2)", params![format!("last_{k}"), v])
-                .map_err(sql)?;
+            tx.execute(
+                "INSERT OR IGNORE INTO meta (key, value) VALUES (?1, ?2)",
+                params![format!("created_{k}"), v],
+            )
+            .map_err(sql)?;
+            tx.execute(
+                "INSERT OR REPLACE INTO meta (key, value) VALUES (?1, ?2)",
+                params![format!("last_{k}"), v],
+            )
+            .map_err(sql)?;
         }
         tx.commit().map_err(sql)
     }
 
     /// `PRAGMA integrity_check` result (`"ok"` when healthy).
     pub fn integrity_check(&self) -> Result<String> {
-        self.conn.query_row("PRAGMA integrity_check", [], |r| r.get(0)).map_err(self.sql_err())
+        self.conn
+            .query_row("PRAGMA integrity_check", [], |r| r.get(0))
+            .map_err(self.sql_err())
     }
 }

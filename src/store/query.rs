@@ -4,16 +4,36 @@
 
 use std::collections::{BTreeMap, BTreeSet};
 
-use rusqlite::types::Value as SqlValue;
 use rusqlite::params_from_iter;
+use rusqlite::types::Value as SqlValue;
 use serde_json::{json, Value};
 
 use super::{Result, Store, StoreError, Table};
 
 /// Columns of `cases`/`outcomes` a filter may name (identifiers cannot be bound, so they are whitelisted).
 pub const FILTER_COLUMNS: [&str; 22] = [
-    "wi", "alpha", "beta", "delta", "n_particles", "a", "h", "l", "lx", "ly", "r0", "eps", "mesh", "dt", "t_end",
-    "status", "kind", "geometry", "label", "case_hash", "string_length", "error",
+    "wi",
+    "alpha",
+    "beta",
+    "delta",
+    "n_particles",
+    "a",
+    "h",
+    "l",
+    "lx",
+    "ly",
+    "r0",
+    "eps",
+    "mesh",
+    "dt",
+    "t_end",
+    "status",
+    "kind",
+    "geometry",
+    "label",
+    "case_hash",
+    "string_length",
+    "error",
 ];
 
 /// Relative tolerance when a numeric filter matches a stored value, so `wi=0.3` finds 0.30000000000000004.
@@ -24,7 +44,7 @@ const FILTER_REL_TOL: f64 = 1e-9;
 pub struct Filter {
     /// Whitelisted column.
     pub column: &'static str,
-    /// Value: numbers match within [`FILTER_REL_TOL`], text exactly.
+    /// Value: numbers match within a relative 1e-9, text exactly.
     pub value: Value,
 }
 
@@ -33,13 +53,23 @@ impl std::str::FromStr for Filter {
 
     /// Parses `column=value`.
     fn from_str(s: &str) -> std::result::Result<Self, String> {
-        let (col, val) = s.split_once('=').ok_or_else(|| format!("filter `{s}` is not column=value"))?;
+        let (col, val) = s
+            .split_once('=')
+            .ok_or_else(|| format!("filter `{s}` is not column=value"))?;
         let column = FILTER_COLUMNS
             .iter()
             .find(|c| **c == col.trim())
-            .ok_or_else(|| format!("unknown filter column `{col}`; use one of {}", FILTER_COLUMNS.join(", ")))?;
+            .ok_or_else(|| {
+                format!(
+                    "unknown filter column `{col}`; use one of {}",
+                    FILTER_COLUMNS.join(", ")
+                )
+            })?;
         let val = val.trim();
-        let value = val.parse::<f64>().map(Value::from).unwrap_or_else(|_| Value::from(val));
+        let value = val
+            .parse::<f64>()
+            .map(Value::from)
+            .unwrap_or_else(|_| Value::from(val));
         Ok(Filter { column, value })
     }
 }
@@ -74,7 +104,10 @@ fn where_clause(sweep: Option<&str>, filters: &[Filter]) -> (String, Vec<SqlValu
             Some(x) => {
                 args.push(SqlValue::Real(x));
                 let i = args.len();
-                sql += &format!(" AND abs(c.{} - ?{i}) <= {FILTER_REL_TOL:e} * max(1.0, abs(?{i}))", f.column);
+                sql += &format!(
+                    " AND abs(c.{} - ?{i}) <= {FILTER_REL_TOL:e} * max(1.0, abs(?{i}))",
+                    f.column
+                );
             }
             None => {
                 args.push(SqlValue::Text(f.value.as_str().unwrap_or_default().into()));
@@ -97,17 +130,26 @@ fn json_of(v: SqlValue) -> Value {
 
 impl Store {
     /// Runs a query over all sweeps or the named one, restricted by `filters`.
-    pub fn query(&self, kind: &QueryKind, sweep: Option<&str>, filters: &[Filter]) -> Result<Table> {
+    pub fn query(
+        &self,
+        kind: &QueryKind,
+        sweep: Option<&str>,
+        filters: &[Filter],
+    ) -> Result<Table> {
         let (cond, args) = where_clause(sweep, filters);
         match kind {
             QueryKind::StringFormation => {
                 let rows = self.rows(
-                    &format!("SELECT c.wi, c.n_particles, c.status, c.kind FROM case_outcomes c{cond}"),
+                    &format!(
+                        "SELECT c.wi, c.n_particles, c.status, c.kind FROM case_outcomes c{cond}"
+                    ),
                     &args,
                 )?;
                 let mut cells: BTreeMap<(Key, i64), String> = BTreeMap::new();
                 for r in rows {
-                    let (Some(wi), Some(n)) = (r[0].as_f64(), r[1].as_i64()) else { continue };
+                    let (Some(wi), Some(n)) = (r[0].as_f64(), r[1].as_i64()) else {
+                        continue;
+                    };
                     let mark = match (r[2].as_str(), r[3].as_str()) {
                         (_, Some("string")) => "+",
                         (Some("done"), Some(_)) => "-",
@@ -125,10 +167,20 @@ impl Store {
                 let rows = self.rows(&format!("SELECT c.delta, c.wi, c.kind FROM case_outcomes c{cond} AND c.kind IS NOT NULL"), &args)?;
                 let mut kinds: BTreeMap<(Key, Key), BTreeSet<String>> = BTreeMap::new();
                 for r in rows {
-                    let (Some(d), Some(wi), Some(k)) = (r[0].as_f64(), r[1].as_f64(), r[2].as_str()) else { continue };
-                    kinds.entry((Key(d), Key(wi))).or_default().insert(k.to_string());
+                    let (Some(d), Some(wi), Some(k)) =
+                        (r[0].as_f64(), r[1].as_f64(), r[2].as_str())
+                    else {
+                        continue;
+                    };
+                    kinds
+                        .entry((Key(d), Key(wi)))
+                        .or_default()
+                        .insert(k.to_string());
                 }
-                let cells = kinds.into_iter().map(|(k, v)| (k, v.into_iter().collect::<Vec<_>>().join("/"))).collect();
+                let cells = kinds
+                    .into_iter()
+                    .map(|(k, v)| (k, v.into_iter().collect::<Vec<_>>().join("/")))
+                    .collect();
                 Ok(pivot("delta", "Wi=", cells, |k: Key| json!(k.0)))
             }
             QueryKind::FinalRStar(by) => {
@@ -137,33 +189,74 @@ impl Store {
                             json_extract(c.final_json, '$.r_star[0]') FROM case_outcomes c{cond}
                      AND c.geometry = 'couette' AND c.kind IS NOT NULL ORDER BY c.{by}, c.r0, c.case_hash"
                 );
-                let cols = ["case", "label", by, "r0_star", "eps", "wi", "alpha", "kind", "r_star_final"];
-                Ok(Table { columns: cols.iter().map(|c| c.to_string()).collect(), rows: self.rows(&sql, &args)? })
+                let cols = [
+                    "case",
+                    "label",
+                    by,
+                    "r0_star",
+                    "eps",
+                    "wi",
+                    "alpha",
+                    "kind",
+                    "r_star_final",
+                ];
+                Ok(Table {
+                    columns: cols.iter().map(|c| c.to_string()).collect(),
+                    rows: self.rows(&sql, &args)?,
+                })
             }
             QueryKind::Cases => {
                 let sql = format!(
                     "SELECT c.case_hash, c.label, c.status, c.kind, c.string_length, c.t_decided, c.mean_gap, c.wall_s,
                             c.error FROM case_outcomes c{cond} ORDER BY c.id"
                 );
-                let cols = ["case", "label", "status", "kind", "string_length", "t_decided", "mean_gap", "wall_s", "error"];
-                Ok(Table { columns: cols.iter().map(|c| c.to_string()).collect(), rows: self.rows(&sql, &args)? })
+                let cols = [
+                    "case",
+                    "label",
+                    "status",
+                    "kind",
+                    "string_length",
+                    "t_decided",
+                    "mean_gap",
+                    "wall_s",
+                    "error",
+                ];
+                Ok(Table {
+                    columns: cols.iter().map(|c| c.to_string()).collect(),
+                    rows: self.rows(&sql, &args)?,
+                })
             }
             QueryKind::Trajectory(hash) => {
                 let mut args = args;
-                let ids = self.rows(&format!("SELECT c.id FROM cases c{cond} AND c.case_hash LIKE ?{} || '%'", args.len() + 1), &{
-                    args.push(SqlValue::Text(hash.clone()));
-                    args.clone()
-                })?;
+                let ids = self.rows(
+                    &format!(
+                        "SELECT c.id FROM cases c{cond} AND c.case_hash LIKE ?{} || '%'",
+                        args.len() + 1
+                    ),
+                    &{
+                        args.push(SqlValue::Text(hash.clone()));
+                        args.clone()
+                    },
+                )?;
                 let id = match ids.as_slice() {
                     [one] => one[0].clone(),
                     [] => return Err(StoreError::BadQuery(format!("no case with id `{hash}`"))),
-                    _ => return Err(StoreError::BadQuery(format!("`{hash}` matches several cases; give more digits"))),
+                    _ => {
+                        return Err(StoreError::BadQuery(format!(
+                            "`{hash}` matches several cases; give more digits"
+                        )))
+                    }
                 };
                 let sql = "SELECT step, t, particle, x, y, u, v, omega, theta FROM samples WHERE case_id = ?1
                            ORDER BY step, particle";
-                let cols = ["step", "t", "particle", "x", "y", "u", "v", "omega", "theta"];
+                let cols = [
+                    "step", "t", "particle", "x", "y", "u", "v", "omega", "theta",
+                ];
                 let rows = self.rows(sql, &[SqlValue::Integer(id.as_i64().unwrap_or(-1))])?;
-                Ok(Table { columns: cols.iter().map(|c| c.to_string()).collect(), rows })
+                Ok(Table {
+                    columns: cols.iter().map(|c| c.to_string()).collect(),
+                    rows,
+                })
             }
         }
     }
@@ -174,7 +267,9 @@ impl Store {
         let n = st.column_count();
         let rows = st
             .query_map(params_from_iter(args.iter()), |r| {
-                (0..n).map(|i| r.get::<_, SqlValue>(i).map(json_of)).collect::<rusqlite::Result<Vec<_>>>()
+                (0..n)
+                    .map(|i| r.get::<_, SqlValue>(i).map(json_of))
+                    .collect::<rusqlite::Result<Vec<_>>>()
             })
             .map_err(&err)?;
         rows.collect::<rusqlite::Result<_>>().map_err(err)
@@ -216,7 +311,10 @@ fn pivot<C: Ord + Copy + std::fmt::Display>(
         .into_iter()
         .map(|r| {
             let mut row = vec![row_json(r)];
-            row.extend(cols.iter().map(|c| cells.get(&(r, *c)).map_or(Value::Null, |s| json!(s))));
+            row.extend(
+                cols.iter()
+                    .map(|c| cells.get(&(r, *c)).map_or(Value::Null, |s| json!(s))),
+            );
             row
         })
         .collect();

@@ -20,11 +20,22 @@ pub struct SnapshotWriter {
 impl SnapshotWriter {
     /// Creates (truncating) the files of case `case_hash` in `dir`.
     pub fn create(dir: &Path, case_hash: &str) -> Result<SnapshotWriter> {
-        std::fs::create_dir_all(dir).map_err(|source| StoreError::Io { path: dir.to_path_buf(), source })?;
+        std::fs::create_dir_all(dir).map_err(|source| StoreError::Io {
+            path: dir.to_path_buf(),
+            source,
+        })?;
         let h5 = dir.join(format!("{case_hash}.h5"));
         let xdmf = dir.join(format!("{case_hash}.xdmf"));
-        let file = hdf5::File::create(&h5).map_err(|e| StoreError::Hdf5 { path: h5.clone(), message: e.to_string() })?;
-        Ok(SnapshotWriter { h5, xdmf, file, grids: Vec::new() })
+        let file = hdf5::File::create(&h5).map_err(|e| StoreError::Hdf5 {
+            path: h5.clone(),
+            message: e.to_string(),
+        })?;
+        Ok(SnapshotWriter {
+            h5,
+            xdmf,
+            file,
+            grids: Vec::new(),
+        })
     }
 
     /// The HDF5 file.
@@ -42,27 +53,62 @@ impl SnapshotWriter {
     /// # Panics
     /// If a field's length is not `components × nodes` (a broken contract of the runner).
     pub fn write(&mut self, s: &FieldSnapshot) -> Result<()> {
-        let h5err = |e: hdf5::Error| StoreError::Hdf5 { path: self.h5.clone(), message: e.to_string() };
+        let h5err = |e: hdf5::Error| StoreError::Hdf5 {
+            path: self.h5.clone(),
+            message: e.to_string(),
+        };
         let name = format!("step_{:010}", s.step);
         let g = self.file.create_group(&name).map_err(h5err)?;
         let n = s.coords.len();
         let coords: Vec<f64> = s.coords.iter().flat_map(|c| *c).collect();
         let quads: Vec<u64> = s.quads.iter().flat_map(|q| q.map(|i| i as u64)).collect();
-        g.new_dataset::<f64>().shape([n, 2]).create("coords").and_then(|d| d.write_raw(&coords)).map_err(h5err)?;
-        g.new_dataset::<u64>().shape([s.quads.len(), 4]).create("quads").and_then(|d| d.write_raw(&quads)).map_err(h5err)?;
-        g.new_attr::<f64>().create("time").and_then(|a| a.write_scalar(&s.t)).map_err(h5err)?;
-        let h5_name = self.h5.file_name().map(|f| f.to_string_lossy().into_owned()).unwrap_or_default();
+        g.new_dataset::<f64>()
+            .shape([n, 2])
+            .create("coords")
+            .and_then(|d| d.write_raw(&coords))
+            .map_err(h5err)?;
+        g.new_dataset::<u64>()
+            .shape([s.quads.len(), 4])
+            .create("quads")
+            .and_then(|d| d.write_raw(&quads))
+            .map_err(h5err)?;
+        g.new_attr::<f64>()
+            .create("time")
+            .and_then(|a| a.write_scalar(&s.t))
+            .map_err(h5err)?;
+        let h5_name = self
+            .h5
+            .file_name()
+            .map(|f| f.to_string_lossy().into_owned())
+            .unwrap_or_default();
         let mut attrs = String::new();
         for f in &s.fields {
-            assert_eq!(f.values.len(), f.components * n, "field {} has the wrong length", f.name);
+            assert_eq!(
+                f.values.len(),
+                f.components * n,
+                "field {} has the wrong length",
+                f.name
+            );
             let (values, dims, kind) = if f.components == 1 {
                 (f.values.clone(), format!("{n}"), "Scalar")
             } else {
-                let v: Vec<f64> = f.values.chunks(f.components).flat_map(|c| [c[0], c.get(1).copied().unwrap_or(0.0), 0.0]).collect();
+                let v: Vec<f64> = f
+                    .values
+                    .chunks(f.components)
+                    .flat_map(|c| [c[0], c.get(1).copied().unwrap_or(0.0), 0.0])
+                    .collect();
                 (v, format!("{n} 3"), "Vector")
             };
-            let shape: Vec<usize> = if f.components == 1 { vec![n] } else { vec![n, 3] };
-            g.new_dataset::<f64>().shape(shape).create(f.name.as_str()).and_then(|d| d.write_raw(&values)).map_err(h5err)?;
+            let shape: Vec<usize> = if f.components == 1 {
+                vec![n]
+            } else {
+                vec![n, 3]
+            };
+            g.new_dataset::<f64>()
+                .shape(shape)
+                .create(f.name.as_str())
+                .and_then(|d| d.write_raw(&values))
+                .map_err(h5err)?;
             attrs += &format!(
                 "        <Attribute Name=\"{0}\" AttributeType=\"{kind}\" Center=\"Node\">\n          <DataItem Dimensions=\"{dims}\" NumberType=\"Float\" Precision=\"8\" Format=\"HDF\">{h5_name}:/{name}/{0}</DataItem>\n        </Attribute>\n",
                 f.name
@@ -82,7 +128,10 @@ impl SnapshotWriter {
         let tmp = self.xdmf.with_extension("xdmf.tmp");
         std::fs::write(&tmp, xml)
             .and_then(|_| std::fs::rename(&tmp, &self.xdmf))
-            .map_err(|source| StoreError::Io { path: self.xdmf.clone(), source })
+            .map_err(|source| StoreError::Io {
+                path: self.xdmf.clone(),
+                source,
+            })
     }
 }
 
@@ -102,8 +151,16 @@ mod tests {
                 coords: vec![[0.0, 0.0], [1.0, 0.0], [1.0, 1.0], [0.0, 1.0]],
                 quads: vec![[0, 1, 2, 3]],
                 fields: vec![
-                    NodalField { name: "p".into(), components: 1, values: vec![1.0, 2.0, 3.0, step as f64] },
-                    NodalField { name: "u".into(), components: 2, values: vec![0.5; 8] },
+                    NodalField {
+                        name: "p".into(),
+                        components: 1,
+                        values: vec![1.0, 2.0, 3.0, step as f64],
+                    },
+                    NodalField {
+                        name: "u".into(),
+                        components: 2,
+                        values: vec![0.5; 8],
+                    },
                 ],
             };
             w.write(&s).unwrap();
@@ -113,13 +170,25 @@ mod tests {
         assert_eq!(p, vec![1.0, 2.0, 3.0, 20.0]);
         let u = f.dataset("step_0000000010/u").unwrap();
         assert_eq!(u.shape(), vec![4, 3]);
-        let q: Vec<u64> = f.dataset("step_0000000010/quads").unwrap().read_raw().unwrap();
+        let q: Vec<u64> = f
+            .dataset("step_0000000010/quads")
+            .unwrap()
+            .read_raw()
+            .unwrap();
         assert_eq!(q, vec![0, 1, 2, 3]);
-        let t: f64 = f.group("step_0000000020").unwrap().attr("time").unwrap().read_scalar().unwrap();
+        let t: f64 = f
+            .group("step_0000000020")
+            .unwrap()
+            .attr("time")
+            .unwrap()
+            .read_scalar()
+            .unwrap();
         assert!((t - 2.0).abs() < 1e-12);
         let xml = std::fs::read_to_string(w.xdmf_path()).unwrap();
         assert_eq!(xml.matches("<Grid Name=\"step_").count(), 2);
-        assert!(xml.contains("TopologyType=\"Quadrilateral\"") && xml.contains("GeometryType=\"XY\""));
+        assert!(
+            xml.contains("TopologyType=\"Quadrilateral\"") && xml.contains("GeometryType=\"XY\"")
+        );
         assert!(xml.contains("abc.h5:/step_0000000020/p"));
         std::fs::remove_dir_all(&dir).ok();
     }

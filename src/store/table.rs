@@ -37,11 +37,23 @@ impl Table {
             Format::Table => {
                 let widths: Vec<usize> = (0..self.columns.len())
                     .map(|j| {
-                        self.rows.iter().map(|r| cell(&r[j]).chars().count()).chain([self.columns[j].chars().count()]).max().unwrap_or(0)
+                        self.rows
+                            .iter()
+                            .map(|r| cell(&r[j]).chars().count())
+                            .chain([self.columns[j].chars().count()])
+                            .max()
+                            .unwrap_or(0)
                     })
                     .collect();
                 let line = |cells: Vec<String>| {
-                    cells.iter().zip(&widths).map(|(c, w)| format!("{c:>w$}")).collect::<Vec<_>>().join("  ").trim_end().to_string()
+                    cells
+                        .iter()
+                        .zip(&widths)
+                        .map(|(c, w)| format!("{c:>w$}"))
+                        .collect::<Vec<_>>()
+                        .join("  ")
+                        .trim_end()
+                        .to_string()
                 };
                 let mut out = vec![line(self.columns.clone())];
                 out.extend(self.rows.iter().map(|r| line(r.iter().map(cell).collect())));
@@ -55,7 +67,13 @@ impl Table {
                         s
                     }
                 };
-                let mut out = self.columns.iter().map(|c| esc(c.clone())).collect::<Vec<_>>().join(",") + "\n";
+                let mut out = self
+                    .columns
+                    .iter()
+                    .map(|c| esc(c.clone()))
+                    .collect::<Vec<_>>()
+                    .join(",")
+                    + "\n";
                 for r in &self.rows {
                     out += &(r.iter().map(|v| esc(cell(v))).collect::<Vec<_>>().join(",") + "\n");
                 }
@@ -65,7 +83,15 @@ impl Table {
                 let arr: Vec<Value> = self
                     .rows
                     .iter()
-                    .map(|r| Value::Object(self.columns.iter().cloned().zip(r.iter().cloned()).collect::<Map<_, _>>()))
+                    .map(|r| {
+                        Value::Object(
+                            self.columns
+                                .iter()
+                                .cloned()
+                                .zip(r.iter().cloned())
+                                .collect::<Map<_, _>>(),
+                        )
+                    })
                     .collect();
                 serde_json::to_string_pretty(&Value::Array(arr)).unwrap_or_default() + "\n"
             }
@@ -81,7 +107,10 @@ mod tests {
 
     #[test]
     fn renders_all_formats() {
-        let t = Table { columns: vec!["wi".into(), "kind".into()], rows: vec![vec![json!(1.0), json!("a,b")]] };
+        let t = Table {
+            columns: vec!["wi".into(), "kind".into()],
+            rows: vec![vec![json!(1.0), json!("a,b")]],
+        };
         assert_eq!(t.render(Format::Csv), "wi,kind\n1.0,\"a,b\"\n");
         assert_eq!(t.render(Format::Table), " wi  kind\n1.0   a,b\n");
         let back: Value = serde_json::from_str(&t.render(Format::Json)).unwrap();

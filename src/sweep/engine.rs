@@ -107,7 +107,13 @@ pub fn run_sweep(
     opts: &SweepOptions,
 ) -> Result<SweepSummary, SweepError> {
     for c in cases {
-        runner.supports(&c.spec).map_err(|reason| SweepError::Unsupported { index: c.index, label: c.label.clone(), reason })?;
+        runner
+            .supports(&c.spec)
+            .map_err(|reason| SweepError::Unsupported {
+                index: c.index,
+                label: c.label.clone(),
+                reason,
+            })?;
     }
     let mut store = Store::open(&opts.db)?;
     let sweep_id = store.register_sweep(sweep)?;
@@ -117,17 +123,26 @@ pub fn run_sweep(
         let conn = store.connection();
         let mut st = conn
             .prepare("SELECT status FROM cases WHERE case_hash = ?1")
-            .map_err(|source| StoreError::Sql { path: opts.db.clone(), source })?;
+            .map_err(|source| StoreError::Sql {
+                path: opts.db.clone(),
+                source,
+            })?;
         cases
             .iter()
-            .filter(|c| st.query_row([&c.id], |r| r.get::<_, String>(0)).is_ok_and(|s| s == "pending"))
+            .filter(|c| {
+                st.query_row([&c.id], |r| r.get::<_, String>(0))
+                    .is_ok_and(|s| s == "pending")
+            })
             .collect()
     };
     let jobs = opts.jobs.max(1).min(pending.len().max(1));
     let threads = (opts.cores / jobs).max(1);
     let run_id = store.begin_run(sweep_id, jobs, &sweep.raw.to_string())?;
     let snapshot_dir = opts.snapshot_dir.clone().unwrap_or_else(|| {
-        opts.db.parent().map(|d| d.join(&sweep.name)).unwrap_or_else(|| PathBuf::from(&sweep.name))
+        opts.db
+            .parent()
+            .map(|d| d.join(&sweep.name))
+            .unwrap_or_else(|| PathBuf::from(&sweep.name))
     });
     let progress = Progress::new(opts.progress, pending.len());
     progress.log(&format!(
@@ -138,29 +153,51 @@ pub fn run_sweep(
         reset,
         opts.db.display()
     ));
-    let results: Mutex<Vec<(usize, Option<(String, bool)>)>> = Mutex::new(Vec::new());
+    let results: Mutex<Vec<(usize, CaseRun)>> = Mutex::new(Vec::new());
     let errors: Mutex<Vec<StoreError>> = Mutex::new(Vec::new());
     let pool = rayon::ThreadPoolBuilder::new()
         .num_threads(jobs)
         .build()
-        .map_err(|e| SweepError::Pool { jobs, message: e.to_string() })?;
+        .map_err(|e| SweepError::Pool {
+            jobs,
+            message: e.to_string(),
+        })?;
     pool.install(|| {
         pending.par_iter().with_max_len(1).for_each(|case| {
-            let ctx = CaseContext { runner, opts, progress: &progress, run_id, threads, snapshot_dir: &snapshot_dir };
+            let ctx = CaseContext {
+                runner,
+                opts,
+                progress: &progress,
+                run_id,
+                threads,
+                snapshot_dir: &snapshot_dir,
+            };
             match run_one(case, &ctx) {
-                Ok(r) => results.lock().unwrap_or_else(|p| p.into_inner()).push((case.index, r)),
+                Ok(r) => results
+                    .lock()
+                    .unwrap_or_else(|p| p.into_inner())
+                    .push((case.index, r)),
                 Err(e) => errors.lock().unwrap_or_else(|p| p.into_inner()).push(e),
             }
         })
     });
     progress.finish();
-    if let Some(e) = errors.into_inner().unwrap_or_else(|p| p.into_inner()).into_iter().next() {
+    if let Some(e) = errors
+        .into_inner()
+        .unwrap_or_else(|p| p.into_inner())
+        .into_iter()
+        .next()
+    {
         return Err(e.into());
     }
     store.finish_run(run_id)?;
     let mut results = results.into_inner().unwrap_or_else(|p| p.into_inner());
     results.sort_by_key(|r| r.0);
-    let mut summary = SweepSummary { total: cases.len(), reset, ..Default::default() };
+    let mut summary = SweepSummary {
+        total: cases.len(),
+        reset,
+        ..Default::default()
+    };
     for (index, r) in results {
         match r {
             None => summary.skipped += 1,
@@ -175,6 +212,10 @@ pub fn run_sweep(
     Ok(summary)
 }
 
+/// What running one case gave: `None` if another process had claimed it, else (outcome kind or
+/// `failed`, whether it failed).
+type CaseRun = Option<(String, bool)>;
+
 struct CaseContext<'a> {
     runner: &'a dyn CaseRunner,
     opts: &'a SweepOptions,
@@ -185,13 +226,22 @@ struct CaseContext<'a> {
 }
 
 /// Claims and runs one case; `None` if another process had it. Returns (outcome or "failed", failed?).
-fn run_one(case: &PlannedCase, ctx: &CaseContext<'_>) -> Result<Option<(String, bool)>, StoreError> {
+fn run_one(
+    case: &PlannedCase,
+    ctx: &CaseContext<'_>,
+) -> Result<Option<(String, bool)>, StoreError> {
     let mut store = Store::open(&ctx.opts.db)?;
-    let Some(case_id) = store.claim(&case.id)? else { return Ok(None) };
+    let Some(case_id) = store.claim(&case.id)? else {
+        return Ok(None);
+    };
     let started = Instant::now();
-    let bar = ctx.progress.start_case(&case.label, &case.id, case.spec.numerics.t_end);
+    let bar = ctx
+        .progress
+        .start_case(&case.label, &case.id, case.spec.numerics.t_end);
     let mut rec = Recorder::new(&mut store, case_id, &case.spec, &case.id, ctx, bar);
-    let result = catch_unwind(AssertUnwindSafe(|| ctx.runner.run(&case.spec, ctx.threads, &mut rec)));
+    let result = catch_unwind(AssertUnwindSafe(|| {
+        ctx.runner.run(&case.spec, ctx.threads, &mut rec)
+    }));
     let (status, steps, t) = match result {
         Ok(r) => (r.status, r.steps, r.t),
         Err(payload) => {
@@ -202,13 +252,23 @@ fn run_one(case: &PlannedCase, ctx: &CaseContext<'_>) -> Result<Option<(String, 
                 .unwrap_or_else(|| "unknown panic".into());
             let t = rec.last.as_ref().map_or(0.0, |s| s.t);
             let steps = rec.last.as_ref().map_or(0, |s| s.step);
-            (RunStatus::Diverged { reason: format!("solver panicked: {msg}") }, steps, t)
+            (
+                RunStatus::Diverged {
+                    reason: format!("solver panicked: {msg}"),
+                },
+                steps,
+                t,
+            )
         }
     };
     let (outcome, mut error) = match status {
         RunStatus::Finished => {
             let o = rec.classifier.clone().finish();
-            let reason = o.final_state.get("reason").and_then(|r| r.as_str()).map(str::to_string);
+            let reason = o
+                .final_state
+                .get("reason")
+                .and_then(|r| r.as_str())
+                .map(str::to_string);
             (Some(o), reason)
         }
         RunStatus::Diverged { reason } => (Some(rec.classifier.diverged(t, &reason)), Some(reason)),
@@ -234,7 +294,10 @@ fn run_one(case: &PlannedCase, ctx: &CaseContext<'_>) -> Result<Option<(String, 
         (None, e) => format!("failed ({})", e.as_deref().unwrap_or("")),
     };
     let failed = outcome.is_none();
-    let kind = outcome.as_ref().map_or("failed", |o| o.kind.as_str()).to_string();
+    let kind = outcome
+        .as_ref()
+        .map_or("failed", |o| o.kind.as_str())
+        .to_string();
     let record = CaseRecord {
         samples,
         outcome,
@@ -313,7 +376,7 @@ impl<'a> Recorder<'a> {
 impl CaseObserver for Recorder<'_> {
     fn on_step(&mut self, sample: &Sample) -> Control {
         self.classifier.push(sample);
-        if sample.step % self.spec.output.sample_every == 0 {
+        if sample.step.is_multiple_of(self.spec.output.sample_every) {
             self.buffer.push(sample.clone());
         }
         self.last = Some(sample.clone());
@@ -325,14 +388,16 @@ impl CaseObserver for Recorder<'_> {
             self.flush();
         }
         match self.classifier.decided() {
-            Some(o) if o.kind == OutcomeKind::Diverged || self.spec.stop.early_stop => Control::Stop,
+            Some(o) if o.kind == OutcomeKind::Diverged || self.spec.stop.early_stop => {
+                Control::Stop
+            }
             _ => Control::Continue,
         }
     }
 
     fn snapshot_due(&self, step: u64) -> bool {
         let every = self.spec.output.snapshot_every;
-        every > 0 && step % every == 0
+        every > 0 && step.is_multiple_of(every)
     }
 
     fn on_snapshot(&mut self, snapshot: &FieldSnapshot) {
@@ -344,7 +409,10 @@ impl CaseObserver for Recorder<'_> {
         }
         let Some(w) = &mut self.snapshots else { return };
         let file = w.h5_path().display().to_string();
-        let written = w.write(snapshot).and_then(|_| self.store.record_snapshot(self.case_id, snapshot.step, snapshot.t, &file));
+        let written = w.write(snapshot).and_then(|_| {
+            self.store
+                .record_snapshot(self.case_id, snapshot.step, snapshot.t, &file)
+        });
         if let Err(e) = written {
             self.snapshot_error.get_or_insert(e.to_string());
         }

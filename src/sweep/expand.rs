@@ -25,7 +25,9 @@ pub struct PlannedCase {
 pub fn fnv1a64(bytes: &[u8]) -> u64 {
     const OFFSET: u64 = 0xcbf2_9ce4_8422_2325;
     const PRIME: u64 = 0x0000_0100_0000_01b3;
-    bytes.iter().fold(OFFSET, |h, b| (h ^ u64::from(*b)).wrapping_mul(PRIME))
+    bytes
+        .iter()
+        .fold(OFFSET, |h, b| (h ^ u64::from(*b)).wrapping_mul(PRIME))
 }
 
 /// JSON text with object keys sorted at every level (independent of serde_json's map ordering).
@@ -34,11 +36,16 @@ pub fn canonical_json(v: &Value) -> String {
         Value::Object(m) => {
             let mut keys: Vec<&String> = m.keys().collect();
             keys.sort();
-            let body: Vec<String> =
-                keys.iter().map(|k| format!("{}:{}", Value::String((*k).clone()), canonical_json(&m[*k]))).collect();
+            let body: Vec<String> = keys
+                .iter()
+                .map(|k| format!("{}:{}", Value::String((*k).clone()), canonical_json(&m[*k])))
+                .collect();
             format!("{{{}}}", body.join(","))
         }
-        Value::Array(a) => format!("[{}]", a.iter().map(canonical_json).collect::<Vec<_>>().join(",")),
+        Value::Array(a) => format!(
+            "[{}]",
+            a.iter().map(canonical_json).collect::<Vec<_>>().join(",")
+        ),
         other => other.to_string(),
     }
 }
@@ -56,18 +63,40 @@ pub fn expand(sweep: &SweepSpec) -> Result<Vec<PlannedCase>, ConfigError> {
     // Each dimension is a list of assignments; a plain axis is a zip group of one.
     let mut dims: Vec<Vec<Vec<(String, Value)>>> = Vec::new();
     for axis in &sweep.axes {
-        dims.push(axis.values.iter().map(|v| vec![(axis.path.clone(), v.clone())]).collect());
+        dims.push(
+            axis.values
+                .iter()
+                .map(|v| vec![(axis.path.clone(), v.clone())])
+                .collect(),
+        );
     }
     for group in &sweep.zips {
         let len = group.first().map_or(0, |a| a.values.len());
-        dims.push((0..len).map(|i| group.iter().map(|a| (a.path.clone(), a.values[i].clone())).collect()).collect());
+        dims.push(
+            (0..len)
+                .map(|i| {
+                    group
+                        .iter()
+                        .map(|a| (a.path.clone(), a.values[i].clone()))
+                        .collect()
+                })
+                .collect(),
+        );
     }
-    let paths: Vec<&str> = sweep.axes.iter().chain(sweep.zips.iter().flatten()).map(|a| a.path.as_str()).collect();
+    let paths: Vec<&str> = sweep
+        .axes
+        .iter()
+        .chain(sweep.zips.iter().flatten())
+        .map(|a| a.path.as_str())
+        .collect();
     let mut combos: Vec<Vec<(String, Value)>> = vec![Vec::new()];
     for dim in &dims {
         combos = combos
             .iter()
-            .flat_map(|c| dim.iter().map(move |assign| c.iter().cloned().chain(assign.iter().cloned()).collect()))
+            .flat_map(|c| {
+                dim.iter()
+                    .map(move |assign| c.iter().cloned().chain(assign.iter().cloned()).collect())
+            })
             .collect();
     }
     let mut cases: Vec<PlannedCase> = Vec::with_capacity(combos.len());
@@ -88,10 +117,19 @@ pub fn expand(sweep: &SweepSpec) -> Result<Vec<PlannedCase>, ConfigError> {
         if let Some(twin) = cases.iter().find(|c| c.id == id) {
             return Err(case_err(SpecError::new(
                 paths.first().copied().unwrap_or(""),
-                format!("identical to case {} ({}); remove the duplicate axis value", twin.index, twin.label),
+                format!(
+                    "identical to case {} ({}); remove the duplicate axis value",
+                    twin.index, twin.label
+                ),
             )));
         }
-        cases.push(PlannedCase { index, label, id, spec, params });
+        cases.push(PlannedCase {
+            index,
+            label,
+            id,
+            spec,
+            params,
+        });
     }
     Ok(cases)
 }
@@ -132,7 +170,9 @@ fn set_path(root: &mut Value, path: &str, value: Value) -> Result<(), SpecError>
             map.insert((*part).to_string(), value);
             return Ok(());
         }
-        node = map.entry((*part).to_string()).or_insert_with(|| Value::Object(Default::default()));
+        node = map
+            .entry((*part).to_string())
+            .or_insert_with(|| Value::Object(Default::default()));
     }
     Ok(())
 }
@@ -176,7 +216,10 @@ mod tests {
     fn ids_are_stable_and_independent_of_spelling() {
         let a = expand(&parse(SWEEP)).unwrap();
         // The same sweep written with reordered keys, a default spelled out, and integers as floats.
-        let b = parse(&SWEEP.replace("particles = {", "output = { sample_every = 10 }\nparticles = {"));
+        let b = parse(&SWEEP.replace(
+            "particles = {",
+            "output = { sample_every = 10 }\nparticles = {",
+        ));
         let b = expand(&b).unwrap();
         for (x, y) in a.iter().zip(&b) {
             assert_eq!(x.id, y.id);
@@ -193,7 +236,12 @@ mod tests {
     fn a_bad_axis_value_names_file_case_and_field() {
         let bad = parse(&SWEEP.replace("fluid.wi = [1, 2, 3]", "fluid.wi = [1, -2, 3]"));
         match expand(&bad).unwrap_err() {
-            ConfigError::Case { index, label, error, file } => {
+            ConfigError::Case {
+                index,
+                label,
+                error,
+                file,
+            } => {
                 assert_eq!(index, 4);
                 assert!(label.starts_with("wi=-2"), "{label}");
                 assert_eq!(error.field, "fluid.wi");
@@ -204,6 +252,9 @@ mod tests {
         let bad = parse(&SWEEP.replace("fluid.wi = [1, 2, 3]", "fluid.wi.x = [1]"));
         assert_eq!(expand(&bad).unwrap_err().field(), Some("fluid.wi"));
         let dup = parse(&SWEEP.replace("fluid.wi = [1, 2, 3]", "fluid.wi = [1, 1.0]"));
-        assert!(matches!(expand(&dup).unwrap_err(), ConfigError::Case { index: 4, .. }));
+        assert!(matches!(
+            expand(&dup).unwrap_err(),
+            ConfigError::Case { index: 4, .. }
+        ));
     }
 }

@@ -1,6 +1,6 @@
 //! Sweep expansion, case ids, scheduling, resume and progress.
 //!
-//! [`expand`] turns a [`crate::config::SweepSpec`] into validated [`PlannedCase`]s with stable ids;
+//! [`expand()`] turns a [`crate::config::SweepSpec`] into validated [`PlannedCase`]s with stable ids;
 //! [`engine`] runs them through a [`CaseRunner`] on a rayon pool, records them in the
 //! [`crate::store::Store`] (one transaction per finished case) and resumes interrupted sweeps;
 //! [`progress`] shows bars or a plain log.
@@ -12,4 +12,6 @@ pub mod runner;
 
 pub use engine::{run_sweep, SweepOptions, SweepSummary};
 pub use expand::{case_id, expand, PlannedCase};
-pub use runner::{default_runner, CaseResult, CaseRunner, FakeBehaviour, FakeRunner, RunStatus, UnbuiltSolver};
+pub use runner::{
+    default_runner, CaseResult, CaseRunner, FakeBehaviour, FakeRunner, RunStatus, UnbuiltSolver,
+};

@@ -64,11 +64,19 @@ impl Progress {
         });
         let overall = multi.add(ProgressBar::new(total as u64));
         overall.set_style(
-            ProgressStyle::with_template("{prefix:>8} [{bar:40}] {pos}/{len} cases, {elapsed} elapsed, ETA {eta}")
-                .unwrap_or_else(|_| ProgressStyle::default_bar()),
+            ProgressStyle::with_template(
+                "{prefix:>8} [{bar:40}] {pos}/{len} cases, {elapsed} elapsed, ETA {eta}",
+            )
+            .unwrap_or_else(|_| ProgressStyle::default_bar()),
         );
         overall.set_prefix("sweep");
-        Progress { mode, multi, overall, total, finished: AtomicUsize::new(0) }
+        Progress {
+            mode,
+            multi,
+            overall,
+            total,
+            finished: AtomicUsize::new(0),
+        }
     }
 
     /// A line of the plain log (also printed above the bars).
@@ -93,10 +101,20 @@ impl Progress {
             b
         });
         if self.mode == ProgressMode::Plain {
-            println!("[{}/{}] start  {label} ({id})", self.finished.load(Ordering::Relaxed) + 1, self.total);
+            println!(
+                "[{}/{}] start  {label} ({id})",
+                self.finished.load(Ordering::Relaxed) + 1,
+                self.total
+            );
         }
         let now = Instant::now();
-        CaseProgress { bar, label: label.to_string(), t_end, started: now, last_draw: now }
+        CaseProgress {
+            bar,
+            label: label.to_string(),
+            t_end,
+            started: now,
+            last_draw: now,
+        }
     }
 
     /// A case ended with `summary` (outcome or error).
@@ -107,7 +125,12 @@ impl Progress {
             self.multi.remove(&b);
         }
         self.overall.inc(1);
-        let line = format!("[{n}/{}] done   {}: {summary} ({:.1} s)", self.total, case.label, case.started.elapsed().as_secs_f64());
+        let line = format!(
+            "[{n}/{}] done   {}: {summary} ({:.1} s)",
+            self.total,
+            case.label,
+            case.started.elapsed().as_secs_f64()
+        );
         self.log(&line);
     }
 
@@ -127,6 +150,9 @@ impl CaseProgress {
         self.last_draw = Instant::now();
         let rate = step as f64 / self.started.elapsed().as_secs_f64().max(1e-9);
         bar.set_position(((t / self.t_end).clamp(0.0, 1.0) * CASE_BAR_LEN as f64) as u64);
-        bar.set_message(format!("{} t={t:.3}/{} {rate:.1} steps/s", self.label, self.t_end));
+        bar.set_message(format!(
+            "{} t={t:.3}/{} {rate:.1} steps/s",
+            self.label, self.t_end
+        ));
     }
 }

@@ -50,12 +50,17 @@ pub struct UnbuiltSolver;
 
 impl CaseRunner for UnbuiltSolver {
     fn supports(&self, case: &CaseSpec) -> Result<(), String> {
-        Err(format!("the solver for {} is not built yet", case.geometry.kind()))
+        Err(format!(
+            "the solver for {} is not built yet",
+            case.geometry.kind()
+        ))
     }
 
     fn run(&self, case: &CaseSpec, _threads: usize, _obs: &mut dyn CaseObserver) -> CaseResult {
         CaseResult {
-            status: RunStatus::Failed { error: format!("the solver for {} is not built yet", case.geometry.kind()) },
+            status: RunStatus::Failed {
+                error: format!("the solver for {} is not built yet", case.geometry.kind()),
+            },
             steps: 0,
             t: 0.0,
         }
@@ -96,7 +101,11 @@ pub struct FakeRunner {
 impl FakeRunner {
     /// A fake runner with the given behaviour, no delay, refusing nothing.
     pub fn new(behaviour: impl Fn(&CaseSpec) -> FakeBehaviour + Sync + Send + 'static) -> Self {
-        FakeRunner { behaviour: Box::new(behaviour), step_delay: Duration::ZERO, refuse: Box::new(|_| false) }
+        FakeRunner {
+            behaviour: Box::new(behaviour),
+            step_delay: Duration::ZERO,
+            refuse: Box::new(|_| false),
+        }
     }
 }
 
@@ -113,7 +122,13 @@ impl CaseRunner for FakeRunner {
         let behaviour = (self.behaviour)(case);
         let kind = match &behaviour {
             FakeBehaviour::Produce(k) => *k,
-            FakeBehaviour::Fail(e) => return CaseResult { status: RunStatus::Failed { error: e.clone() }, steps: 0, t: 0.0 },
+            FakeBehaviour::Fail(e) => {
+                return CaseResult {
+                    status: RunStatus::Failed { error: e.clone() },
+                    steps: 0,
+                    t: 0.0,
+                }
+            }
             _ => OutcomeKind::Timeout,
         };
         let dt = case.numerics.dt;
@@ -127,7 +142,13 @@ impl CaseRunner for FakeRunner {
             if step == FAKE_STEPS_BEFORE_TROUBLE {
                 match &behaviour {
                     FakeBehaviour::Diverge(reason) => {
-                        return CaseResult { status: RunStatus::Diverged { reason: reason.clone() }, steps: step, t }
+                        return CaseResult {
+                            status: RunStatus::Diverged {
+                                reason: reason.clone(),
+                            },
+                            steps: step,
+                            t,
+                        }
                     }
                     FakeBehaviour::Panic => panic!("fake solver panicked at step {step}"),
                     _ => obs.checkpoint(),
@@ -137,17 +158,32 @@ impl CaseRunner for FakeRunner {
                 obs.on_snapshot(&fake_snapshot(step, t));
             }
             if obs.on_step(&synthetic::sample(kind, case, step, t)) == Control::Stop {
-                return CaseResult { status: RunStatus::Finished, steps: step, t };
+                return CaseResult {
+                    status: RunStatus::Finished,
+                    steps: step,
+                    t,
+                };
             }
         }
-        CaseResult { status: RunStatus::Finished, steps, t }
+        CaseResult {
+            status: RunStatus::Finished,
+            steps,
+            t,
+        }
     }
 }
 
 /// A 2 × 1 element mesh with the four fields of a real snapshot.
 fn fake_snapshot(step: u64, t: f64) -> crate::observe::FieldSnapshot {
     use crate::observe::{FieldSnapshot, NodalField};
-    let coords = vec![[0.0, 0.0], [1.0, 0.0], [2.0, 0.0], [0.0, 1.0], [1.0, 1.0], [2.0, 1.0]];
+    let coords = vec![
+        [0.0, 0.0],
+        [1.0, 0.0],
+        [2.0, 0.0],
+        [0.0, 1.0],
+        [1.0, 1.0],
+        [2.0, 1.0],
+    ];
     let scalar = |name: &str, f: &dyn Fn([f64; 2]) -> f64| NodalField {
         name: name.into(),
         components: 1,
@@ -158,7 +194,11 @@ fn fake_snapshot(step: u64, t: f64) -> crate::observe::FieldSnapshot {
         t,
         quads: vec![[0, 1, 4, 3], [1, 2, 5, 4]],
         fields: vec![
-            NodalField { name: "u".into(), components: 2, values: coords.iter().flat_map(|c| [c[1] * t, 0.0]).collect() },
+            NodalField {
+                name: "u".into(),
+                components: 2,
+                values: coords.iter().flat_map(|c| [c[1] * t, 0.0]).collect(),
+            },
             scalar("p", &|c| c[0] * t),
             scalar("tr_tau", &|c| c[0] + c[1]),
             scalar("level_set", &|c| c[0] - 1.0),

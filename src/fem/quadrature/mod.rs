@@ -84,7 +84,13 @@ mod tests {
 
     /// Exact integral of x^a y^b over [-1, 1]².
     fn exact_square(a: u32, b: u32) -> f64 {
-        let m = |k: u32| if k % 2 == 1 { 0.0 } else { 2.0 / (k as f64 + 1.0) };
+        let m = |k: u32| {
+            if k % 2 == 1 {
+                0.0
+            } else {
+                2.0 / (k as f64 + 1.0)
+            }
+        };
         m(a) * m(b)
     }
 

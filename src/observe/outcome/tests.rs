@@ -67,9 +67,15 @@ fn every_shear_kind_is_recognised() {
         }
     }
     // A single particle that reaches a steady rotation is `steady`, not a string.
-    assert_eq!(classify(OutcomeKind::Steady, &shear(1)).kind, OutcomeKind::Steady);
+    assert_eq!(
+        classify(OutcomeKind::Steady, &shear(1)).kind,
+        OutcomeKind::Steady
+    );
     // Steady but 4a apart: not a chain.
-    assert_eq!(classify(OutcomeKind::Steady, &shear(3)).kind, OutcomeKind::Steady);
+    assert_eq!(
+        classify(OutcomeKind::Steady, &shear(3)).kind,
+        OutcomeKind::Steady
+    );
 }
 
 #[test]
@@ -78,8 +84,14 @@ fn couette_migration_by_final_r_star() {
     assert_eq!(o.kind, OutcomeKind::Migrated);
     let r = o.final_state["r_star"][0].as_f64().unwrap();
     assert!((r - 0.4).abs() < 0.01, "r* = {r}");
-    assert_eq!(classify(OutcomeKind::Steady, &couette()).kind, OutcomeKind::Steady);
-    assert_eq!(classify(OutcomeKind::WallContact, &couette()).kind, OutcomeKind::WallContact);
+    assert_eq!(
+        classify(OutcomeKind::Steady, &couette()).kind,
+        OutcomeKind::Steady
+    );
+    assert_eq!(
+        classify(OutcomeKind::WallContact, &couette()).kind,
+        OutcomeKind::WallContact
+    );
 }
 
 #[test]
