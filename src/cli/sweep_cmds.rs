@@ -1,1 +1,264 @@
-//! Sweep, query and status subcommands.
+//! Sweep, query and status subcommands: clap argument structs and handlers that wrap the library.
+//!
+//! Exit codes: 0 success; 1 the sweep ran but some cases failed, or a runtime error; 2 the sweep file or
+//! a query is invalid, or the solver cannot run a case — in which case nothing is written.
+
+use std::io::Write;
+use std::path::{Path, PathBuf};
+use std::process::ExitCode;
+
+use anyhow::Context;
+
+use crate::config::SweepSpec;
+use crate::store::query::{Filter, QueryKind, FILTER_COLUMNS};
+use crate::store::{Format, Store, Table};
+use crate::sweep::engine::SweepError;
+use crate::sweep::progress::ProgressMode;
+use crate::sweep::{default_runner, expand, CaseRunner, SweepOptions};
+
+/// Exit code of invalid input (sweep file, query) — nothing was written.
+const EXIT_INVALID: u8 = 2;
+
+/// `xpflow sweep FILE`: run (or resume) a sweep.
+#[derive(Debug, Clone, clap::Args)]
+pub struct SweepArgs {
+    /// Sweep file (TOML, or JSON with a .json extension).
+    pub file: PathBuf,
+    /// Results database (default: `results/<sweep name>.db`).
+    #[arg(long)]
+    pub db: Option<PathBuf>,
+    /// Cases run at once [default: number of cores].
+    #[arg(long)]
+    pub jobs: Option<usize>,
+    /// List the expanded cases with their ids and exit.
+    #[arg(long)]
+    pub dry_run: bool,
+    /// No progress output.
+    #[arg(long)]
+    pub quiet: bool,
+    /// Rerun cases recorded as failed.
+    #[arg(long)]
+    pub retry_failed: bool,
+}
+
+/// What `xpflow query` tabulates.
+#[derive(Debug, Clone, Copy, PartialEq, Eq, clap::ValueEnum)]
+pub enum QueryWhat {
+    /// String formation, Wi × N (thesis Table 5.2).
+    Strings,
+    /// Outcome kinds, δ × Wi (thesis Fig. 5.26).
+    Regime,
+    /// Final r* of Couette cases by a parameter (`--by`).
+    FinalR,
+    /// One row per case with status and outcome.
+    Cases,
+    /// Raw samples of one case (`--case ID`).
+    Trajectory,
+}
+
+/// `xpflow query WHAT`: tables from a results database.
+#[derive(Debug, Clone, clap::Args)]
+pub struct QueryArgs {
+    /// What to tabulate.
+    #[arg(value_enum)]
+    pub what: QueryWhat,
+    /// Results database.
+    #[arg(long)]
+    pub db: PathBuf,
+    /// Only cases of this sweep.
+    #[arg(long)]
+    pub sweep: Option<String>,
+    /// Filter `column=value` (repeatable), e.g. `--where alpha=0.01`.
+    #[arg(long = "where", value_name = "COLUMN=VALUE")]
+    pub filters: Vec<String>,
+    /// Case id (prefix) for `trajectory`.
+    #[arg(long)]
+    pub case: Option<String>,
+    /// Parameter column ordering `final-r` [default: r0].
+    #[arg(long, default_value = "r0")]
+    pub by: String,
+    /// Output format.
+    #[arg(long, value_enum, default_value_t = Format::Table)]
+    pub format: Format,
+}
+
+/// `xpflow status`: per-sweep case counts.
+#[derive(Debug, Clone, clap::Args)]
+pub struct StatusArgs {
+    /// Results databases [default: every results/*.db].
+    #[arg(long)]
+    pub db: Vec<PathBuf>,
+}
+
+/// Handler of `xpflow sweep` with the solver's runner.
+pub fn run_sweep(args: &SweepArgs) -> anyhow::Result<ExitCode> {
+    let runner = default_runner();
+    run_sweep_with(args, runner.as_ref(), &mut std::io::stdout())
+}
+
+/// Handler of `xpflow sweep` with a given runner, writing listings to `out` (testable).
+pub fn run_sweep_with(
+    args: &SweepArgs,
+    runner: &dyn CaseRunner,
+    out: &mut dyn Write,
+) -> anyhow::Result<ExitCode> {
+    let spec = match SweepSpec::from_file(&args.file) {
+        Ok(s) => s,
+        Err(e) => return invalid(&e),
+    };
+    let cases = match expand(&spec) {
+        Ok(c) => c,
+        Err(e) => return invalid(&e),
+    };
+    if args.dry_run {
+        let mut t = Table {
+            columns: vec!["index".into(), "id".into(), "label".into()],
+            rows: Vec::new(),
+        };
+        for c in &cases {
+            t.rows.push(vec![
+                c.index.into(),
+                c.id.clone().into(),
+                c.label.clone().into(),
+            ]);
+        }
+        write!(out, "{}", t.render(Format::Table))?;
+        writeln!(out, "{} cases in sweep {}", cases.len(), spec.name)?;
+        return Ok(ExitCode::SUCCESS);
+    }
+    let db = args
+        .db
+        .clone()
+        .unwrap_or_else(|| Path::new("results").join(format!("{}.db", spec.name)));
+    let mut opts = SweepOptions::new(db);
+    if let Some(j) = args.jobs {
+        opts.jobs = j.max(1);
+    }
+    opts.retry_failed = args.retry_failed;
+    opts.progress = ProgressMode::detect(args.quiet);
+    match crate::sweep::run_sweep(&spec, &cases, runner, &opts) {
+        Ok(summary) => {
+            if !args.quiet {
+                writeln!(
+                    out,
+                    "sweep {}: {} cases, {} run, {} failed, {} skipped; results in {}",
+                    spec.name,
+                    summary.total,
+                    summary.ran,
+                    summary.failed,
+                    summary.skipped,
+                    opts.db.display()
+                )?;
+            }
+            Ok(if summary.failed > 0 {
+                ExitCode::FAILURE
+            } else {
+                ExitCode::SUCCESS
+            })
+        }
+        Err(e @ SweepError::Unsupported { .. }) => {
+            eprintln!("error: {}: {e}; nothing was run", args.file.display());
+            Ok(ExitCode::from(EXIT_INVALID))
+        }
+        Err(e) => Err(e).context(format!("sweep {}", spec.name)),
+    }
+}
+
+fn invalid(e: &dyn std::fmt::Display) -> anyhow::Result<ExitCode> {
+    eprintln!("error: {e}");
+    Ok(ExitCode::from(EXIT_INVALID))
+}
+
+/// Handler of `xpflow query`.
+pub fn run_query(args: &QueryArgs) -> anyhow::Result<ExitCode> {
+    run_query_to(args, &mut std::io::stdout())
+}
+
+/// Handler of `xpflow query` writing to `out` (testable).
+pub fn run_query_to(args: &QueryArgs, out: &mut dyn Write) -> anyhow::Result<ExitCode> {
+    let filters: Result<Vec<Filter>, String> = args.filters.iter().map(|f| f.parse()).collect();
+    let filters = match filters {
+        Ok(f) => f,
+        Err(e) => return invalid(&e),
+    };
+    let kind = match args.what {
+        QueryWhat::Strings => QueryKind::StringFormation,
+        QueryWhat::Regime => QueryKind::Regime,
+        QueryWhat::Cases => QueryKind::Cases,
+        QueryWhat::FinalR => match FILTER_COLUMNS.iter().find(|c| **c == args.by) {
+            Some(c) => QueryKind::FinalRStar(c),
+            None => {
+                return invalid(&format!(
+                    "--by {}: use one of {}",
+                    args.by,
+                    FILTER_COLUMNS.join(", ")
+                ))
+            }
+        },
+        QueryWhat::Trajectory => match &args.case {
+            Some(c) => QueryKind::Trajectory(c.clone()),
+            None => return invalid(&"trajectory needs --case ID (see `xpflow query cases`)"),
+        },
+    };
+    if !args.db.exists() {
+        return invalid(&format!("database {} does not exist", args.db.display()));
+    }
+    let store = Store::open(&args.db)?;
+    match store.query(&kind, args.sweep.as_deref(), &filters) {
+        Ok(t) => {
+            write!(out, "{}", t.render(args.format))?;
+            Ok(ExitCode::SUCCESS)
+        }
+        Err(e @ crate::store::StoreError::BadQuery(_)) => invalid(&e),
+        Err(e) => Err(e.into()),
+    }
+}
+
+/// Handler of `xpflow status`.
+pub fn run_status(args: &StatusArgs) -> anyhow::Result<ExitCode> {
+    run_status_to(args, &mut std::io::stdout())
+}
+
+/// Handler of `xpflow status` writing to `out` (testable).
+pub fn run_status_to(args: &StatusArgs, out: &mut dyn Write) -> anyhow::Result<ExitCode> {
+    let dbs: Vec<PathBuf> = if args.db.is_empty() {
+        let mut v: Vec<PathBuf> = std::fs::read_dir("results")
+            .map(|d| {
+                d.filter_map(|e| e.ok().map(|e| e.path()))
+                    .filter(|p| p.extension().is_some_and(|e| e == "db"))
+                    .collect()
+            })
+            .unwrap_or_default();
+        v.sort();
+        v
+    } else {
+        args.db.clone()
+    };
+    let mut t = Table {
+        columns: [
+            "database", "sweep", "cases", "done", "running", "failed", "pending",
+        ]
+        .map(String::from)
+        .to_vec(),
+        rows: Vec::new(),
+    };
+    for db in &dbs {
+        if !db.exists() {
+            return invalid(&format!("database {} does not exist", db.display()));
+        }
+        let store = Store::open(db)?;
+        for c in store.counts(None)? {
+            t.rows.push(vec![
+                db.display().to_string().into(),
+                c.name.into(),
+                c.total.into(),
+                c.done.into(),
+                c.running.into(),
+                c.failed.into(),
+                c.pending.into(),
+            ]);
+        }
+    }
+    write!(out, "{}", t.render(Format::Table))?;
+    Ok(ExitCode::SUCCESS)
+}

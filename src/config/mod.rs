@@ -1,1 +1,23 @@
 //! Typed, validated case and sweep specifications.
+//!
+//! Owns [`CaseSpec`] (geometry, fluid, particles, numerics, output, stop rules; serde with
+//! `deny_unknown_fields`, validated once by [`CaseSpec::from_value`]) and [`SweepSpec`] (a base case plus
+//! axes). The dimensionless groups follow the thesis: Wi, α, β (5.6.3, 5.7), δ = H/2a (5.7.3),
+//! ε = 2a/(R2 − R1) and r* = (r − R1)/(R2 − R1) (3.5.1). Validation rejects impossible physics (particles
+//! overlapping each other or a wall, a ≥ H/2, Wi < 0, α or β outside [0, 1), Δt ≤ 0, N = 0) with an error
+//! naming the field and saying what to change.
+//!
+//! `config` uses only the pure layout functions of [`crate::geometry::layout`], which themselves know no
+//! configuration types.
+
+mod case;
+mod error;
+mod sweep_file;
+mod validate;
+
+pub use case::{CaseSpec, Fluid, Geometry, Layout, Model, Numerics, Output, Particles, Stop};
+pub use error::{ConfigError, SpecError};
+pub use sweep_file::{Axis, SweepSpec};
+
+#[cfg(test)]
+mod tests;

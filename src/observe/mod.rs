@@ -1,1 +1,93 @@
 //! Observables and outcome classification from trajectories.
+//!
+//! Owns the contract between a running case and whoever records it: per-step particle states
+//! ([`Sample`]), optional nodal field snapshots ([`FieldSnapshot`]) and the [`CaseObserver`] trait a solver
+//! calls; and the outcome rules ([`outcome::Classifier`]): string formation by the steady-state test of
+//! thesis 5.7.2 (|ω*(tⁿ⁺¹) − ω*(tⁿ)| < 10⁻⁶ for every particle) plus a chain condition, repel (reversed
+//! trajectories, thesis 5.6.2), pass, jammed (overlap), wall contact, Couette migration by the final
+//! r* = (r − R1)/(R2 − R1) (thesis 3.5.1), diverged and timeout. The rules are written out in
+//! `docs/sweeps.md`.
+
+pub mod outcome;
+pub mod synthetic;
+
+pub use outcome::{Classifier, Outcome, OutcomeKind};
+
+/// State of one rigid particle at one time (angles and angular velocities positive clockwise, as in
+/// thesis 5.7.1).
+#[derive(Debug, Clone, Copy, PartialEq, serde::Serialize, serde::Deserialize)]
+pub struct ParticleState {
+    /// Centre x.
+    pub x: f64,
+    /// Centre y.
+    pub y: f64,
+    /// Translational velocity U.
+    pub u: f64,
+    /// Translational velocity V.
+    pub v: f64,
+    /// Angular velocity ω (clockwise positive).
+    pub omega: f64,
+    /// Rotation angle θ (clockwise positive).
+    pub theta: f64,
+}
+
+/// Particle states after one time step.
+#[derive(Debug, Clone, PartialEq)]
+pub struct Sample {
+    /// Time step number (1 for the first step after t = 0; 0 for the initial state).
+    pub step: u64,
+    /// Time after the step.
+    pub t: f64,
+    /// One state per particle, in the order of [`crate::config::CaseSpec::initial_positions`].
+    pub particles: Vec<ParticleState>,
+}
+
+/// A nodal field on the mesh of a snapshot.
+#[derive(Debug, Clone, PartialEq)]
+pub struct NodalField {
+    /// Name as shown in ParaView, e.g. `u`, `p`, `tr_tau`, `level_set`.
+    pub name: String,
+    /// 1 (scalar) or 2 (vector, stored as x, y per node).
+    pub components: usize,
+    /// `components` values per node, node-major.
+    pub values: Vec<f64>,
+}
+
+/// Field snapshot: the (possibly deformed) mesh and nodal fields at one time.
+#[derive(Debug, Clone, PartialEq)]
+pub struct FieldSnapshot {
+    /// Time step number.
+    pub step: u64,
+    /// Time.
+    pub t: f64,
+    /// Node coordinates.
+    pub coords: Vec<[f64; 2]>,
+    /// Quadrilaterals as four node indices, counter-clockwise (Q1 vertices of the Q2 elements).
+    pub quads: Vec<[usize; 4]>,
+    /// Nodal fields: u, p, tr τ, level set (any subset).
+    pub fields: Vec<NodalField>,
+}
+
+/// Whether the runner should go on.
+#[derive(Debug, Clone, Copy, PartialEq, Eq)]
+pub enum Control {
+    /// Keep stepping.
+    Continue,
+    /// Stop now and return `Finished`: the outcome is decided and early stop is on.
+    Stop,
+}
+
+/// What a running case reports to. A [`crate::sweep::CaseRunner`] must call [`CaseObserver::on_step`] after
+/// every time step (the steady-state test compares consecutive steps), honour [`Control::Stop`], offer a
+/// snapshot when [`CaseObserver::snapshot_due`] says so, and may call [`CaseObserver::checkpoint`] when it
+/// is a good moment to persist what has been observed so far.
+pub trait CaseObserver {
+    /// Particle states after a step (and once for the initial state with step 0, optional).
+    fn on_step(&mut self, sample: &Sample) -> Control;
+    /// True when a field snapshot for `step` is wanted.
+    fn snapshot_due(&self, step: u64) -> bool;
+    /// A field snapshot.
+    fn on_snapshot(&mut self, snapshot: &FieldSnapshot);
+    /// Persist what has been observed so far (long cases).
+    fn checkpoint(&mut self);
+}

@@ -1,1 +1,221 @@
 //! Results store: SQLite tables and HDF5 field snapshots.
+//!
+//! One SQLite file per results set, in WAL mode with a busy timeout so that several sweeps (processes or
+//! threads, each with its own connection) can write to it at once. Schema in [`schema`]; writes in
+//! [`cases`]; the thesis-style tables in [`query`]; HDF5 snapshots with an XDMF sidecar in [`snapshot`].
+//! All SQL uses bound parameters. Write transactions are `BEGIN IMMEDIATE`, so a writer waits for the lock
+//! up front instead of failing to upgrade a read lock.
+
+pub mod cases;
+pub mod query;
+pub mod schema;
+pub mod snapshot;
+pub mod table;
+
+use std::path::{Path, PathBuf};
+use std::time::Duration;
+
+use rusqlite::{params, Connection, OptionalExtension, TransactionBehavior};
+
+pub use cases::{CaseRecord, SweepCounts};
+pub use table::{Format, Table};
+
+/// How long a connection waits for another writer before giving up: a finished case's transaction takes
+/// milliseconds, so a minute means something is wrong.
+const BUSY_TIMEOUT: Duration = Duration::from_secs(60);
+
+/// Store errors.
+#[derive(Debug, thiserror::Error)]
+pub enum StoreError {
+    /// SQLite failed.
+    #[error("database {}: {source}", path.display())]
+    Sql {
+        /// Database file.
+        path: PathBuf,
+        /// The SQLite error.
+        source: rusqlite::Error,
+    },
+    /// The database was written by a newer xpflow.
+    #[error("database {} has schema version {found}, newer than this xpflow's {supported}; use a newer xpflow", path.display())]
+    NewerSchema {
+        /// Database file.
+        path: PathBuf,
+        /// Version in the file.
+        found: i64,
+        /// Version this code writes.
+        supported: i64,
+    },
+    /// File-system error (database directory, snapshot files).
+    #[error("{}: {source}", path.display())]
+    Io {
+        /// The path.
+        path: PathBuf,
+        /// The I/O error.
+        source: std::io::Error,
+    },
+    /// HDF5 failed.
+    #[error("HDF5 file {}: {message}", path.display())]
+    Hdf5 {
+        /// The file.
+        path: PathBuf,
+        /// The library's message.
+        message: String,
+    },
+    /// A query asked for something that does not exist (unknown column, unknown sweep, ...).
+    #[error("{0}")]
+    BadQuery(String),
+}
+
+/// Result alias for the store.
+pub type Result<T> = std::result::Result<T, StoreError>;
+
+/// Code version recorded with results: the crate version plus `XPFLOW_GIT_DESCRIBE` if set at build time.
+pub fn code_version() -> String {
+    match option_env!("XPFLOW_GIT_DESCRIBE") {
+        Some(git) => format!("{} ({git})", env!("CARGO_PKG_VERSION")),
+        None => env!("CARGO_PKG_VERSION").to_string(),
+    }
+}
+
+/// Host name, as used for case ownership.
+pub fn hostname() -> String {
+    std::fs::read_to_string("/proc/sys/kernel/hostname")
+        .or_else(|_| std::fs::read_to_string("/etc/hostname"))
+        .map(|s| s.trim().to_string())
+        .unwrap_or_else(|_| "unknown-host".into())
+}
+
+/// Machine description recorded with results: host, OS, architecture, available cores.
+pub fn machine() -> String {
+    let cores = std::thread::available_parallelism().map_or(1, |n| n.get());
+    format!(
+        "{} {}-{} {} cores",
+        hostname(),
+        std::env::consts::OS,
+        std::env::consts::ARCH,
+        cores
+    )
+}
+
+/// A connection to a results database. Not shared between threads: open one per thread.
+pub struct Store {
+    conn: Connection,
+    path: PathBuf,
+}
+
+impl Store {
+    /// Opens (creating if needed) the database at `path`, switches it to WAL mode and brings the schema up
+    /// to [`schema::SCHEMA_VERSION`].
+    pub fn open(path: &Path) -> Result<Store> {
+        if let Some(dir) = path.parent().filter(|d| !d.as_os_str().is_empty()) {
+            std::fs::create_dir_all(dir).map_err(|source| StoreError::Io {
+                path: dir.to_path_buf(),
+                source,
+            })?;
+        }
+        let sql = |source| StoreError::Sql {
+            path: path.to_path_buf(),
+            source,
+        };
+        let conn = Connection::open(path).map_err(sql)?;
+        conn.busy_timeout(BUSY_TIMEOUT).map_err(sql)?;
+        let mode: String = conn
+            .query_row("PRAGMA journal_mode = WAL", [], |r| r.get(0))
+            .map_err(sql)?;
+        debug_assert!(mode.eq_ignore_ascii_case("wal") || path.as_os_str() == ":memory:");
+        conn.pragma_update(None, "synchronous", "NORMAL")
+            .map_err(sql)?;
+        conn.pragma_update(None, "foreign_keys", "ON")
+            .map_err(sql)?;
+        let mut store = Store {
+            conn,
+            path: path.to_path_buf(),
+        };
+        store.migrate()?;
+        Ok(store)
+    }
+
+    /// The database file.
+    pub fn path(&self) -> &Path {
+        &self.path
+    }
+
+    /// The raw connection, for ad-hoc reads (tests, tools).
+    pub fn connection(&self) -> &Connection {
+        &self.conn
+    }
+
+    /// Wraps an SQLite error with this database's path (owns a copy of the path, so it can be held
+    /// across mutable uses of the connection).
+    pub(crate) fn sql_err(&self) -> impl Fn(rusqlite::Error) -> StoreError {
+        let path = self.path.clone();
+        move |source| StoreError::Sql {
+            path: path.clone(),
+            source,
+        }
+    }
+
+    fn migrate(&mut self) -> Result<()> {
+        let path = self.path.clone();
+        let sql = |source| StoreError::Sql {
+            path: path.clone(),
+            source,
+        };
+        let tx = self
+            .conn
+            .transaction_with_behavior(TransactionBehavior::Immediate)
+            .map_err(sql)?;
+        tx.execute_batch(schema::CREATE).map_err(sql)?;
+        let found: Option<i64> = tx
+            .query_row("SELECT MAX(version) FROM schema_version", [], |r| r.get(0))
+            .optional()
+            .map_err(sql)?
+            .flatten();
+        match found {
+            None => {
+                tx.execute(
+                    "INSERT INTO schema_version (version) VALUES (?1)",
+                    params![schema::SCHEMA_VERSION],
+                )
+                .map_err(sql)?;
+            }
+            Some(v) if v > schema::SCHEMA_VERSION => {
+                return Err(StoreError::NewerSchema {
+                    path,
+                    found: v,
+                    supported: schema::SCHEMA_VERSION,
+                });
+            }
+            Some(v) => {
+                for (i, m) in schema::MIGRATIONS.iter().enumerate().skip((v - 1) as usize) {
+                    tx.execute_batch(m).map_err(sql)?;
+                    tx.execute(
+                        "UPDATE schema_version SET version = ?1",
+                        params![i as i64 + 2],
+                    )
+                    .map_err(sql)?;
+                }
+            }
+        }
+        for (k, v) in [("code_version", code_version()), ("machine", machine())] {
+            tx.execute(
+                "INSERT OR IGNORE INTO meta (key, value) VALUES (?1, ?2)",
+                params![format!("created_{k}"), v],
+            )
+            .map_err(sql)?;
+            tx.execute(
+                "INSERT OR REPLACE INTO meta (key, value) VALUES (?1, ?2)",
+                params![format!("last_{k}"), v],
+            )
+            .map_err(sql)?;
+        }
+        tx.commit().map_err(sql)
+    }
+
+    /// `PRAGMA integrity_check` result (`"ok"` when healthy).
+    pub fn integrity_check(&self) -> Result<String> {
+        self.conn
+            .query_row("PRAGMA integrity_check", [], |r| r.get(0))
+            .map_err(self.sql_err())
+    }
+}

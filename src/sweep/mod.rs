@@ -1,1 +1,17 @@
 //! Sweep expansion, case ids, scheduling, resume and progress.
+//!
+//! [`expand()`] turns a [`crate::config::SweepSpec`] into validated [`PlannedCase`]s with stable ids;
+//! [`engine`] runs them through a [`CaseRunner`] on a rayon pool, records them in the
+//! [`crate::store::Store`] (one transaction per finished case) and resumes interrupted sweeps;
+//! [`progress`] shows bars or a plain log.
+
+pub mod engine;
+pub mod expand;
+pub mod progress;
+pub mod runner;
+
+pub use engine::{run_sweep, SweepOptions, SweepSummary};
+pub use expand::{case_id, expand, PlannedCase};
+pub use runner::{
+    default_runner, CaseResult, CaseRunner, FakeBehaviour, FakeRunner, RunStatus, UnbuiltSolver,
+};

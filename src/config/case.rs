@@ -1,0 +1,346 @@
+//! The case specification: serde types of one simulation case (geometry, fluid, particles, numerics,
+//! output, stop rules). Construct with [`CaseSpec::from_value`], which resolves shorthands and validates.
+
+use serde::{Deserialize, Serialize};
+
+use crate::geometry::layout;
+
+/// One fully specified simulation case. Build it with [`CaseSpec::from_value`] (or via a sweep file) so that
+/// it is validated; afterwards treat it as immutable and pass it as `&CaseSpec`.
+///
+/// Units: lengths and times are in the geometry's units; with H = 1 and U_w = 1 (confined shear) the time is
+/// the thesis' t* = t γ̇. The zero-shear viscosity is η0 = η_s + η_p = 1.
+#[derive(Debug, Clone, PartialEq, Serialize, Deserialize)]
+#[serde(deny_unknown_fields)]
+pub struct CaseSpec {
+    /// Flow domain and how it is driven.
+    pub geometry: Geometry,
+    /// Constitutive model and its dimensionless parameters.
+    pub fluid: Fluid,
+    /// The suspended rigid particles; must be absent for `cylinder_channel` (its cylinder is part of the
+    /// geometry).
+    #[serde(default, skip_serializing_if = "Option::is_none")]
+    pub particles: Option<Particles>,
+    /// Mesh and time stepping.
+    pub numerics: Numerics,
+    /// What is recorded and how often.
+    #[serde(default)]
+    pub output: Output,
+    /// Stopping rules beyond the end time.
+    #[serde(default)]
+    pub stop: Stop,
+}
+
+/// Flow domain. Exactly one variant, written as a sub-table, e.g. `[geometry.confined_shear]`.
+#[derive(Debug, Clone, PartialEq, Serialize, Deserialize)]
+#[serde(rename_all = "snake_case", deny_unknown_fields)]
+pub enum Geometry {
+    /// Channel [−L/2, L/2] × [−H/2, H/2], periodic in x, walls at y = ±H/2 moving at ±U_w/2 (thesis 5.6.1).
+    /// Shorthand: `delta = δ` instead of `h` gives H = 2aδ (thesis 5.7.3).
+    ConfinedShear {
+        /// Channel height H.
+        h: f64,
+        /// Channel length L (period in x).
+        l: f64,
+        /// Relative wall speed U_w (top wall +U_w/2, bottom wall −U_w/2).
+        #[serde(default = "one")]
+        wall_speed: f64,
+    },
+    /// Annulus R1 < r < R2 centred at the origin, inner cylinder rotating counter-clockwise at ω̄, outer
+    /// cylinder at rest (thesis 3.5.1). Shorthand: `particles.eps = ε` instead of `particles.radius` gives
+    /// a = ε (R2 − R1)/2.
+    Couette {
+        /// Inner radius R1.
+        r1: f64,
+        /// Outer radius R2.
+        r2: f64,
+        /// Angular velocity ω̄ of the inner cylinder.
+        #[serde(default = "one")]
+        omega_inner: f64,
+    },
+    /// Fixed cylinder of radius R at the centre of a channel with a parabolic inflow of mean velocity U
+    /// (thesis Ch. 2 benchmark: H = 4R, L = 30R).
+    CylinderChannel {
+        /// Cylinder radius R.
+        radius: f64,
+        /// Channel height H (the benchmark uses 4R).
+        h: f64,
+        /// Channel length L (the benchmark uses 30R).
+        l: f64,
+        /// Mean inflow velocity U.
+        mean_velocity: f64,
+    },
+}
+
+/// Constitutive model.
+#[derive(Debug, Clone, Copy, PartialEq, Eq, Serialize, Deserialize)]
+#[serde(rename_all = "snake_case")]
+pub enum Model {
+    /// Giesekus model with mobility α (α = 0 is Oldroyd-B).
+    Giesekus,
+    /// Oldroyd-B model (α must be 0).
+    OldroydB,
+    /// Newtonian fluid (Wi must be 0).
+    Newtonian,
+}
+
+/// Fluid rheology in dimensionless form.
+#[derive(Debug, Clone, PartialEq, Serialize, Deserialize)]
+#[serde(deny_unknown_fields)]
+pub struct Fluid {
+    /// Constitutive model: `giesekus`, `oldroyd_b` or `newtonian`.
+    pub model: Model,
+    /// Weissenberg number; see [`CaseSpec::relaxation_time`] for its meaning per geometry. Wi ≥ 0.
+    pub wi: f64,
+    /// Giesekus mobility α ∈ [0, 1); default 0.
+    #[serde(default)]
+    pub alpha: f64,
+    /// Viscosity ratio β = η_s/(η_s + η_p) ∈ [0, 1).
+    pub beta: f64,
+}
+
+/// Rigid particles, all of the same radius.
+#[derive(Debug, Clone, PartialEq, Serialize, Deserialize)]
+#[serde(deny_unknown_fields)]
+pub struct Particles {
+    /// Particle radius a (or the shorthand `eps` for Couette, see [`Geometry::Couette`]).
+    pub radius: f64,
+    /// Initial positions.
+    pub layout: Layout,
+}
+
+/// Initial particle positions, written as a sub-table, e.g. `[particles.layout.string]`.
+#[derive(Debug, Clone, PartialEq, Serialize, Deserialize)]
+#[serde(rename_all = "snake_case", deny_unknown_fields)]
+pub enum Layout {
+    /// Point-symmetric string of n particles, neighbours l_x apart in x and l_y apart in y, first particle
+    /// top-left (thesis 5.7, Fig. 5.16; see [`layout::string_positions`]).
+    String {
+        /// Number of particles N ≥ 1.
+        n: usize,
+        /// x-distance between neighbouring centres.
+        lx: f64,
+        /// y-distance between neighbouring centres.
+        ly: f64,
+    },
+    /// The two-particle set-up of thesis 5.6.1: centres (−l_x, l_y) and (l_x, −l_y).
+    Pair {
+        /// Half the x-distance between the centres.
+        lx: f64,
+        /// Half the y-distance between the centres.
+        ly: f64,
+    },
+    /// Explicit centres [[x, y], ...].
+    Explicit {
+        /// Particle centres.
+        positions: Vec<[f64; 2]>,
+    },
+    /// One particle in Couette flow at r0* = (r0 − R1)/(R2 − R1) (thesis 3.5.1).
+    Couette {
+        /// Initial dimensionless radial position r0*.
+        r0_star: f64,
+        /// Polar angle of the centre in radians, counter-clockwise from +x; default 0.
+        #[serde(default)]
+        angle: f64,
+    },
+}
+
+/// Mesh and time stepping.
+#[derive(Debug, Clone, PartialEq, Serialize, Deserialize)]
+#[serde(deny_unknown_fields)]
+pub struct Numerics {
+    /// Number of elements [n1, n2]: along x and y (channels) or radial × azimuthal (Couette).
+    pub mesh: [usize; 2],
+    /// Ratio of the largest to the smallest element size across the channel (graded towards the centre
+    /// line, thesis Fig. 5.25); 1 = uniform.
+    #[serde(default = "one")]
+    pub grading: f64,
+    /// Refine around particles with the grid deformation method (thesis 3.3.4).
+    #[serde(default)]
+    pub grid_deformation: bool,
+    /// Time step Δt > 0.
+    pub dt: f64,
+    /// End time; the case is undecided (`timeout`) if no outcome is reached by then.
+    pub t_end: f64,
+    /// Quadtree refinement level of cut-cell integration (thesis Table 2.2); default 3.
+    #[serde(default = "default_quadtree_level")]
+    pub quadtree_level: u32,
+}
+
+/// What is recorded.
+#[derive(Debug, Clone, PartialEq, Serialize, Deserialize)]
+#[serde(deny_unknown_fields)]
+pub struct Output {
+    /// Store particle states every k time steps (k ≥ 1); default 10.
+    #[serde(default = "default_sample_every")]
+    pub sample_every: u64,
+    /// Write an HDF5 field snapshot every m time steps; 0 (default) writes none.
+    #[serde(default)]
+    pub snapshot_every: u64,
+}
+
+impl Default for Output {
+    fn default() -> Self {
+        Output {
+            sample_every: default_sample_every(),
+            snapshot_every: 0,
+        }
+    }
+}
+
+/// Stopping rules.
+#[derive(Debug, Clone, PartialEq, Serialize, Deserialize)]
+#[serde(deny_unknown_fields)]
+pub struct Stop {
+    /// Stop the case as soon as its outcome is decided (see docs/sweeps.md); default true.
+    #[serde(default = "yes")]
+    pub early_stop: bool,
+}
+
+impl Default for Stop {
+    fn default() -> Self {
+        Stop { early_stop: true }
+    }
+}
+
+fn one() -> f64 {
+    1.0
+}
+fn yes() -> bool {
+    true
+}
+fn default_quadtree_level() -> u32 {
+    3
+}
+fn default_sample_every() -> u64 {
+    10
+}
+
+/// Short name of a geometry variant, as used in messages and the `cases.geometry` column.
+impl Geometry {
+    /// `confined_shear`, `couette` or `cylinder_channel`.
+    pub fn kind(&self) -> &'static str {
+        match self {
+            Geometry::ConfinedShear { .. } => "confined_shear",
+            Geometry::Couette { .. } => "couette",
+            Geometry::CylinderChannel { .. } => "cylinder_channel",
+        }
+    }
+}
+
+impl CaseSpec {
+    /// Particle radius a, or `None` without particles.
+    pub fn radius(&self) -> Option<f64> {
+        self.particles.as_ref().map(|p| p.radius)
+    }
+
+    /// Initial particle centres in the order the particles are numbered everywhere else.
+    pub fn initial_positions(&self) -> Vec<[f64; 2]> {
+        let Some(p) = &self.particles else {
+            return Vec::new();
+        };
+        match &p.layout {
+            Layout::String { n, lx, ly } => layout::string_positions(*n, *lx, *ly),
+            Layout::Pair { lx, ly } => layout::pair_positions(*lx, *ly),
+            Layout::Explicit { positions } => positions.clone(),
+            Layout::Couette { r0_star, angle } => match self.geometry {
+                Geometry::Couette { r1, r2, .. } => {
+                    vec![layout::couette_position(r1, r2, *r0_star, *angle)]
+                }
+                // Validation rejects a Couette layout in another geometry; place it at the origin meanwhile.
+                _ => vec![[0.0, 0.0]],
+            },
+        }
+    }
+
+    /// Number of particles N.
+    pub fn n_particles(&self) -> usize {
+        self.initial_positions().len()
+    }
+
+    /// Characteristic rate γ̇ that makes times and angular velocities dimensionless (t* = tγ̇, ω* = ω/γ̇):
+    /// U_w/H (confined shear, thesis 5.7.1), ω̄ R1/(R2 − R1) (Couette, 3.5.1), U/R (cylinder channel).
+    pub fn characteristic_rate(&self) -> f64 {
+        match self.geometry {
+            Geometry::ConfinedShear { h, wall_speed, .. } => wall_speed / h,
+            Geometry::Couette {
+                r1,
+                r2,
+                omega_inner,
+            } => omega_inner * r1 / (r2 - r1),
+            Geometry::CylinderChannel {
+                radius,
+                mean_velocity,
+                ..
+            } => mean_velocity / radius,
+        }
+    }
+
+    /// Relaxation time λ = Wi / γ̇ with the rate of [`Self::characteristic_rate`]: shear Wi = λU_w/H
+    /// (thesis 5.6.3), Couette Wi = λω̄R1/(R2 − R1) (3.5.1), cylinder Wi = λU/R (Ch. 2). 0 for Newtonian.
+    pub fn relaxation_time(&self) -> f64 {
+        if self.fluid.model == Model::Newtonian {
+            return 0.0;
+        }
+        self.fluid.wi / self.characteristic_rate()
+    }
+
+    /// Solvent viscosity η_s = β η0 with η0 = 1 (all of η0 for a Newtonian fluid).
+    pub fn solvent_viscosity(&self) -> f64 {
+        if self.fluid.model == Model::Newtonian {
+            1.0
+        } else {
+            self.fluid.beta
+        }
+    }
+
+    /// Polymer viscosity η_p = (1 − β) η0 (0 for a Newtonian fluid).
+    pub fn polymer_viscosity(&self) -> f64 {
+        1.0 - self.solvent_viscosity()
+    }
+
+    /// Confinement ratio δ = H/2a (confined shear with particles, thesis 5.7.3).
+    pub fn delta(&self) -> Option<f64> {
+        match (&self.geometry, self.radius()) {
+            (Geometry::ConfinedShear { h, .. }, Some(a)) => Some(h / (2.0 * a)),
+            _ => None,
+        }
+    }
+
+    /// Couette confinement ratio ε = 2a/(R2 − R1) (thesis 3.5.1).
+    pub fn eps(&self) -> Option<f64> {
+        match (&self.geometry, self.radius()) {
+            (Geometry::Couette { r1, r2, .. }, Some(a)) => Some(2.0 * a / (r2 - r1)),
+            _ => None,
+        }
+    }
+
+    /// Initial dimensionless radial position r0* of the first particle (Couette).
+    pub fn r0_star(&self) -> Option<f64> {
+        match self.geometry {
+            Geometry::Couette { r1, r2, .. } => self
+                .initial_positions()
+                .first()
+                .map(|&p| layout::r_star(r1, r2, p)),
+            _ => None,
+        }
+    }
+
+    /// String spacing (l_x, l_y) as written in the layout (string or pair), if any.
+    pub fn spacing(&self) -> Option<(f64, f64)> {
+        match self.particles.as_ref().map(|p| &p.layout) {
+            Some(Layout::String { lx, ly, .. }) | Some(Layout::Pair { lx, ly }) => Some((*lx, *ly)),
+            _ => None,
+        }
+    }
+
+    /// Channel height H and length L (channel geometries).
+    pub fn channel(&self) -> Option<(f64, f64)> {
+        match self.geometry {
+            Geometry::ConfinedShear { h, l, .. } | Geometry::CylinderChannel { h, l, .. } => {
+                Some((h, l))
+            }
+            Geometry::Couette { .. } => None,
+        }
+    }
+}

@@ -1,0 +1,185 @@
+//! Tests of case parsing and validation.
+
+use serde_json::{json, Value};
+
+use super::*;
+
+/// Derived quantities (H from δ, a from ε, λ) are products of decimals: only rounding error remains.
+const EXACT: f64 = 1e-12;
+
+/// The three-particle set-up of thesis 5.7.1 as a case table.
+fn shear() -> Value {
+    json!({
+        "geometry": {"confined_shear": {"h": 1.0, "l": 4.0}},
+        "fluid": {"model": "giesekus", "wi": 2.0, "alpha": 0.01, "beta": 0.1},
+        "particles": {"radius": 0.1, "layout": {"string": {"n": 3, "lx": 0.5, "ly": 0.1}}},
+        "numerics": {"mesh": [440, 110], "dt": 0.01, "t_end": 100.0}
+    })
+}
+
+fn couette() -> Value {
+    json!({
+        "geometry": {"couette": {"r1": 1.0, "r2": 4.0}},
+        "fluid": {"model": "giesekus", "wi": 1.0, "alpha": 0.1, "beta": 0.1},
+        "particles": {"eps": 0.2, "layout": {"couette": {"r0_star": 0.5}}},
+        "numerics": {"mesh": [40, 160], "dt": 0.01, "t_end": 10.0}
+    })
+}
+
+fn set(mut v: Value, pointer: &str, x: Value) -> Value {
+    *v.pointer_mut(pointer).unwrap() = x;
+    v
+}
+
+fn field_of(v: Value) -> String {
+    CaseSpec::from_value(v).expect_err("must be rejected").field
+}
+
+#[test]
+fn thesis_setups_are_accepted_with_defaults() {
+    let s = CaseSpec::from_value(shear()).unwrap();
+    assert_eq!(s.n_particles(), 3);
+    assert_eq!(s.output.sample_every, 10);
+    assert!(s.stop.early_stop);
+    assert!((s.delta().unwrap() - 5.0).abs() < EXACT);
+    // Shear Wi = λ U_w / H with U_w = H = 1.
+    assert!((s.relaxation_time() - 2.0).abs() < EXACT);
+
+    let c = CaseSpec::from_value(couette()).unwrap();
+    // ε = 2a/(R2 − R1) = 0.2 → a = 0.3; Wi = λ ω̄ R1/(R2 − R1) → λ = 3.
+    assert!((c.radius().unwrap() - 0.3).abs() < EXACT);
+    assert!((c.r0_star().unwrap() - 0.5).abs() < EXACT);
+    assert!((c.relaxation_time() - 3.0).abs() < EXACT);
+}
+
+#[test]
+fn delta_shorthand_sets_h() {
+    let mut v = shear();
+    v["geometry"]["confined_shear"] = json!({"delta": 2.0, "l": 4.0});
+    let s = CaseSpec::from_value(v).unwrap();
+    assert!((s.channel().unwrap().0 - 0.4).abs() < EXACT);
+    // δ = 2 makes the end particles touch the walls (thesis 5.7.3): allowed.
+    let mut both = shear();
+    both["geometry"]["confined_shear"]["delta"] = json!(3.0);
+    assert_eq!(field_of(both), "geometry.confined_shear.delta");
+}
+
+#[test]
+fn unknown_keys_and_wrong_types_name_the_field() {
+    let mut v = shear();
+    v["fluid"]["wii"] = json!(1.0);
+    let e = CaseSpec::from_value(v).unwrap_err();
+    assert_eq!(e.field, "fluid.wii");
+    assert!(e.message.contains("unknown field"), "{}", e.message);
+
+    assert_eq!(
+        field_of(set(shear(), "/fluid/wi", json!("two"))),
+        "fluid.wi"
+    );
+    assert_eq!(
+        field_of(set(shear(), "/numerics/mesh", json!([1, "a"]))),
+        "numerics.mesh"
+    );
+    assert_eq!(
+        field_of(set(shear(), "/particles/layout/string/n", json!(2.5))),
+        "particles.layout.string.n"
+    );
+    let mut v = shear();
+    v["numerics"].as_object_mut().unwrap().remove("dt");
+    assert_eq!(field_of(v), "numerics");
+    let mut v = shear();
+    v["extra"] = json!(1);
+    assert_eq!(field_of(v), "extra");
+}
+
+#[test]
+fn impossible_physics_is_rejected() {
+    assert_eq!(field_of(set(shear(), "/fluid/wi", json!(-1.0))), "fluid.wi");
+    assert_eq!(
+        field_of(set(shear(), "/fluid/alpha", json!(1.0))),
+        "fluid.alpha"
+    );
+    assert_eq!(
+        field_of(set(shear(), "/fluid/alpha", json!(-0.1))),
+        "fluid.alpha"
+    );
+    assert_eq!(
+        field_of(set(shear(), "/fluid/beta", json!(1.0))),
+        "fluid.beta"
+    );
+    assert_eq!(
+        field_of(set(shear(), "/numerics/dt", json!(0.0))),
+        "numerics.dt"
+    );
+    assert_eq!(
+        field_of(set(shear(), "/numerics/dt", json!(-0.1))),
+        "numerics.dt"
+    );
+    assert_eq!(
+        field_of(set(shear(), "/particles/layout/string/n", json!(0))),
+        "particles.layout.string.n"
+    );
+    assert_eq!(
+        field_of(set(shear(), "/particles/radius", json!(0.5))),
+        "particles.radius"
+    );
+    // ly = 0.45 puts the end particles through the walls at |y| = 0.45 > H/2 − a.
+    assert_eq!(
+        field_of(set(shear(), "/particles/layout/string/ly", json!(0.45))),
+        "particles.layout.string"
+    );
+    // lx = 0.1, ly = 0.05: centres 0.11 apart, less than 2a = 0.2.
+    let v = set(
+        shear(),
+        "/particles/layout/string",
+        json!({"n": 3, "lx": 0.1, "ly": 0.05}),
+    );
+    let e = CaseSpec::from_value(v).unwrap_err();
+    assert!(e.message.contains("overlap"), "{}", e.message);
+    // Periodic images: a particle at each end of the channel overlaps through the boundary.
+    let v = set(
+        shear(),
+        "/particles/layout",
+        json!({"explicit": {"positions": [[-1.95, 0.0], [1.95, 0.0]]}}),
+    );
+    assert_eq!(field_of(v), "particles.layout.explicit");
+    let v = set(
+        shear(),
+        "/fluid",
+        json!({"model": "newtonian", "wi": 1.0, "beta": 0.0}),
+    );
+    assert_eq!(field_of(v), "fluid.wi");
+    let v = set(
+        shear(),
+        "/fluid",
+        json!({"model": "oldroyd_b", "wi": 1.0, "alpha": 0.1, "beta": 0.1}),
+    );
+    assert_eq!(field_of(v), "fluid.alpha");
+    // Couette: r0* outside [ε/2, 1 − ε/2].
+    assert_eq!(
+        field_of(set(
+            couette(),
+            "/particles/layout/couette/r0_star",
+            json!(0.05)
+        )),
+        "particles.layout.couette"
+    );
+    assert_eq!(
+        field_of(set(couette(), "/particles/eps", json!(1.2))),
+        "particles.eps"
+    );
+}
+
+#[test]
+fn cylinder_channel_has_no_particles() {
+    let v = json!({
+        "geometry": {"cylinder_channel": {"radius": 1.0, "h": 4.0, "l": 30.0, "mean_velocity": 1.0}},
+        "fluid": {"model": "oldroyd_b", "wi": 0.6, "beta": 0.59},
+        "numerics": {"mesh": [300, 40], "dt": 0.01, "t_end": 20.0}
+    });
+    let c = CaseSpec::from_value(v.clone()).unwrap();
+    assert!((c.relaxation_time() - 0.6).abs() < EXACT, "Wi = λU/R");
+    let mut w = v;
+    w["particles"] = json!({"radius": 0.1, "layout": {"pair": {"lx": 0.5, "ly": 0.1}}});
+    assert_eq!(field_of(w), "particles");
+}

@@ -1,0 +1,321 @@
+//! Outcome classification from a trajectory, step by step. The rules (see `docs/sweeps.md`) in the order
+//! they are checked at each step:
+//! 1. `diverged`: a non-finite particle state.
+//! 2. `wall_contact`: a particle penetrates a wall by more than [`CONTACT_OVERLAP`]·a.
+//! 3. `jammed`: two particles overlap by more than [`CONTACT_OVERLAP`]·a.
+//! 4. `string` / `steady`: every particle's ω* = ω/γ̇ changes by less than [`STEADY_OMEGA_TOL`] per step
+//!    (thesis 5.7.2) for [`STEADY_HOLD_STEPS`] consecutive steps; `string` if N ≥ 2 and the particles form
+//!    one chain (neighbour gaps below [`CHAIN_GAP`]·a), else `steady`. Not used for Couette.
+//! 5. `pass` / `repel` (confined shear, N ≥ 2): with Δx the unwrapped x-distance from the first (top-left)
+//!    to the last particle, Δx₀ its initial value: `pass` once Δx ≤ −Δx₀; `repel` once Δx has come down by
+//!    at least [`MIN_APPROACH`]·a and then grown back to Δx₀ (reversed trajectories, thesis 5.6.2).
+//!
+//! At the end time, an undecided case is: Couette `migrated` if |r* − r0*| ≥ [`MIGRATION_MIN`], else
+//! `steady`; cylinder channel `steady`; otherwise `timeout`.
+
+use serde_json::{json, Value};
+
+use super::{ParticleState, Sample};
+use crate::config::{CaseSpec, Geometry};
+use crate::geometry::layout;
+
+/// The thesis' steady-state tolerance on |ω*(tⁿ⁺¹) − ω*(tⁿ)| (section 5.7.2).
+pub const STEADY_OMEGA_TOL: f64 = 1e-6;
+/// Consecutive steady steps required, so that ω* passing an extremum is not mistaken for a steady state.
+pub const STEADY_HOLD_STEPS: u32 = 10;
+/// Neighbours closer than this many radii (surface gap) belong to one chain; thesis strings have gaps of
+/// 0.065a–0.15a (5.7.2), repelled particles end several radii apart.
+pub const CHAIN_GAP: f64 = 0.5;
+/// Penetration (in radii) of a wall or another particle taken as contact; the method has no contact force,
+/// so deeper overlap makes the rest of the trajectory meaningless. Initial touching (δ = 2) is allowed.
+pub const CONTACT_OVERLAP: f64 = 0.01;
+/// Approach (in radii) of the end particles needed before a recovering Δx counts as `repel`, so that noise
+/// at the start is not a reversal.
+pub const MIN_APPROACH: f64 = 0.1;
+/// Change in r* below which a Couette particle counts as `steady` rather than `migrated` at the end.
+pub const MIGRATION_MIN: f64 = 0.01;
+
+/// Kinds of outcome, stored as their snake_case name.
+#[derive(Debug, Clone, Copy, PartialEq, Eq, serde::Serialize, serde::Deserialize)]
+#[serde(rename_all = "snake_case")]
+pub enum OutcomeKind {
+    /// All particles steady by the ω criterion and in one chain.
+    String,
+    /// Reversed trajectories.
+    Repel,
+    /// The end particles passed each other.
+    Pass,
+    /// Two particles overlap.
+    Jammed,
+    /// A particle penetrates a wall.
+    WallContact,
+    /// Couette: the particle moved by at least [`MIGRATION_MIN`] in r*.
+    Migrated,
+    /// Steady without a chain, a Couette particle that stayed, or a finished cylinder benchmark.
+    Steady,
+    /// Non-finite state, solver failure to converge or a panic.
+    Diverged,
+    /// Undecided at the end time.
+    Timeout,
+}
+
+impl OutcomeKind {
+    /// The stored name, e.g. `wall_contact`.
+    pub fn as_str(self) -> &'static str {
+        match self {
+            OutcomeKind::String => "string",
+            OutcomeKind::Repel => "repel",
+            OutcomeKind::Pass => "pass",
+            OutcomeKind::Jammed => "jammed",
+            OutcomeKind::WallContact => "wall_contact",
+            OutcomeKind::Migrated => "migrated",
+            OutcomeKind::Steady => "steady",
+            OutcomeKind::Diverged => "diverged",
+            OutcomeKind::Timeout => "timeout",
+        }
+    }
+}
+
+/// A decided outcome.
+#[derive(Debug, Clone, PartialEq)]
+pub struct Outcome {
+    /// The kind.
+    pub kind: OutcomeKind,
+    /// Number of particles in the chain (`string` only).
+    pub string_length: Option<usize>,
+    /// Time at which it was decided.
+    pub t_decided: f64,
+    /// Mean surface gap between chain neighbours in radii, d* = d/a (thesis 5.7.2), when N ≥ 2.
+    pub mean_gap: Option<f64>,
+    /// Final state: positions, ω*, r* (Couette), and a `reason` for `diverged`.
+    pub final_state: Value,
+}
+
+/// Decides the outcome of one case from its samples, one step at a time.
+#[derive(Debug, Clone)]
+pub struct Classifier {
+    geometry: Geometry,
+    radius: f64,
+    rate: f64,
+    period: Option<f64>,
+    /// Unwrapped x of each particle.
+    unwrapped: Vec<f64>,
+    initial: Vec<[f64; 2]>,
+    dx0: Option<f64>,
+    dx_min: f64,
+    last_omega: Option<Vec<f64>>,
+    steady_steps: u32,
+    last: Option<Sample>,
+    decided: Option<Outcome>,
+}
+
+impl Classifier {
+    /// A classifier for `spec`, starting from its initial layout.
+    pub fn new(spec: &CaseSpec) -> Self {
+        let initial = spec.initial_positions();
+        let period = match spec.geometry {
+            Geometry::ConfinedShear { l, .. } => Some(l),
+            _ => None,
+        };
+        let dx0 = match (period, initial.len()) {
+            (Some(_), n) if n >= 2 => Some(initial[n - 1][0] - initial[0][0]).filter(|d| *d > 0.0),
+            _ => None,
+        };
+        Classifier {
+            geometry: spec.geometry.clone(),
+            radius: spec.radius().unwrap_or(0.0),
+            rate: spec.characteristic_rate(),
+            period,
+            unwrapped: initial.iter().map(|p| p[0]).collect(),
+            initial,
+            dx0,
+            dx_min: dx0.unwrap_or(0.0),
+            last_omega: None,
+            steady_steps: 0,
+            last: None,
+            decided: None,
+        }
+    }
+
+    /// The outcome, if already decided.
+    pub fn decided(&self) -> Option<&Outcome> {
+        self.decided.as_ref()
+    }
+
+    /// Takes one step's sample; returns the outcome when this step decides it (once).
+    pub fn push(&mut self, s: &Sample) -> Option<Outcome> {
+        if self.decided.is_some() {
+            self.last = Some(s.clone());
+            return None;
+        }
+        let decision = self.decide(s);
+        self.last = Some(s.clone());
+        if let Some(kind) = decision {
+            let outcome = self.outcome(kind, s.t, None);
+            self.decided = Some(outcome.clone());
+            return Some(outcome);
+        }
+        None
+    }
+
+    /// Records that the solver diverged (or panicked) at time `t` with `reason`.
+    pub fn diverged(&mut self, t: f64, reason: &str) -> Outcome {
+        let outcome = self.outcome(OutcomeKind::Diverged, t, Some(reason));
+        self.decided = Some(outcome.clone());
+        outcome
+    }
+
+    /// The outcome at the end of the run (decided earlier, or by the end-time rules).
+    pub fn finish(mut self) -> Outcome {
+        if let Some(o) = self.decided.take() {
+            return o;
+        }
+        let t = self.last.as_ref().map_or(0.0, |s| s.t);
+        let kind = match self.geometry {
+            Geometry::Couette { r1, r2, .. } => {
+                let moved = self
+                    .last
+                    .as_ref()
+                    .and_then(|s| s.particles.first())
+                    .map_or(0.0, |p| {
+                        (layout::r_star(r1, r2, [p.x, p.y])
+                            - layout::r_star(r1, r2, self.initial[0]))
+                        .abs()
+                    });
+                if moved >= MIGRATION_MIN {
+                    OutcomeKind::Migrated
+                } else {
+                    OutcomeKind::Steady
+                }
+            }
+            Geometry::CylinderChannel { .. } => OutcomeKind::Steady,
+            Geometry::ConfinedShear { .. } => OutcomeKind::Timeout,
+        };
+        self.outcome(kind, t, None)
+    }
+
+    fn decide(&mut self, s: &Sample) -> Option<OutcomeKind> {
+        let ps = &s.particles;
+        if !s.t.is_finite() || ps.iter().any(|p| !state_is_finite(p)) {
+            return Some(OutcomeKind::Diverged);
+        }
+        let a = self.radius;
+        let slack = CONTACT_OVERLAP * a;
+        let wall = match self.geometry {
+            Geometry::ConfinedShear { h, .. } => ps.iter().any(|p| p.y.abs() + a > h / 2.0 + slack),
+            Geometry::Couette { r1, r2, .. } => ps.iter().any(|p| {
+                let r = p.x.hypot(p.y);
+                r - a < r1 - slack || r + a > r2 + slack
+            }),
+            Geometry::CylinderChannel { .. } => false,
+        };
+        if wall {
+            return Some(OutcomeKind::WallContact);
+        }
+        let centres: Vec<[f64; 2]> = ps.iter().map(|p| [p.x, p.y]).collect();
+        for i in 0..centres.len() {
+            for j in i + 1..centres.len() {
+                if layout::surface_gap(centres[i], centres[j], a, self.period) < -slack {
+                    return Some(OutcomeKind::Jammed);
+                }
+            }
+        }
+        // Steady-state test on ω* between consecutive steps.
+        let omega: Vec<f64> = ps.iter().map(|p| p.omega / self.rate).collect();
+        let steady_now = self.last_omega.as_ref().is_some_and(|prev| {
+            prev.len() == omega.len()
+                && prev
+                    .iter()
+                    .zip(&omega)
+                    .all(|(a, b)| (a - b).abs() < STEADY_OMEGA_TOL)
+        });
+        self.steady_steps = if steady_now { self.steady_steps + 1 } else { 0 };
+        self.last_omega = Some(omega);
+        let is_couette = matches!(self.geometry, Geometry::Couette { .. });
+        if self.steady_steps >= STEADY_HOLD_STEPS && !is_couette && !ps.is_empty() {
+            let chained = ps.len() >= 2
+                && chain_gaps(&centres, a, self.period)
+                    .iter()
+                    .all(|g| *g < CHAIN_GAP * a);
+            return Some(if chained {
+                OutcomeKind::String
+            } else {
+                OutcomeKind::Steady
+            });
+        }
+        // Pass / repel from the end particles' unwrapped x-distance.
+        if let (Some(l), Some(dx0)) = (self.period, self.dx0) {
+            for (u, p) in self.unwrapped.iter_mut().zip(ps) {
+                *u += layout::periodic_dx(*u, p.x, l);
+            }
+            let dx = self.unwrapped[ps.len() - 1] - self.unwrapped[0];
+            self.dx_min = self.dx_min.min(dx);
+            if dx <= -dx0 {
+                return Some(OutcomeKind::Pass);
+            }
+            if self.dx_min <= dx0 - MIN_APPROACH * a && dx >= dx0 {
+                return Some(OutcomeKind::Repel);
+            }
+        }
+        None
+    }
+
+    fn outcome(&self, kind: OutcomeKind, t: f64, reason: Option<&str>) -> Outcome {
+        let ps: &[ParticleState] = self.last.as_ref().map_or(&[], |s| &s.particles);
+        let centres: Vec<[f64; 2]> = ps.iter().map(|p| [p.x, p.y]).collect();
+        let gaps = if centres.len() >= 2 && self.radius > 0.0 {
+            chain_gaps(&centres, self.radius, self.period)
+        } else {
+            Vec::new()
+        };
+        let mean_gap = (!gaps.is_empty() && gaps.iter().all(|g| g.is_finite()))
+            .then(|| gaps.iter().sum::<f64>() / gaps.len() as f64 / self.radius);
+        let mut final_state = json!({
+            "t": t,
+            "positions": centres,
+            "omega_star": ps.iter().map(|p| p.omega / self.rate).collect::<Vec<_>>(),
+            "gaps_over_a": gaps.iter().map(|g| g / self.radius).collect::<Vec<_>>(),
+        });
+        if let Geometry::Couette { r1, r2, .. } = self.geometry {
+            final_state["r_star"] = json!(centres
+                .iter()
+                .map(|c| layout::r_star(r1, r2, *c))
+                .collect::<Vec<_>>());
+        }
+        if let Some(r) = reason {
+            final_state["reason"] = json!(r);
+        } else if kind == OutcomeKind::Diverged {
+            final_state["reason"] = json!("non-finite particle state");
+        }
+        Outcome {
+            kind,
+            string_length: (kind == OutcomeKind::String).then_some(ps.len()),
+            t_decided: t,
+            mean_gap: if kind == OutcomeKind::Diverged {
+                None
+            } else {
+                mean_gap
+            },
+            final_state,
+        }
+    }
+}
+
+fn state_is_finite(p: &ParticleState) -> bool {
+    [p.x, p.y, p.u, p.v, p.omega, p.theta]
+        .iter()
+        .all(|v| v.is_finite())
+}
+
+/// Surface gaps between neighbours of the chain ordered by x along the string (periodic distance).
+fn chain_gaps(centres: &[[f64; 2]], a: f64, period: Option<f64>) -> Vec<f64> {
+    let mut order: Vec<usize> = (0..centres.len()).collect();
+    order.sort_by(|&i, &j| centres[i][0].total_cmp(&centres[j][0]));
+    order
+        .windows(2)
+        .map(|w| layout::surface_gap(centres[w[0]], centres[w[1]], a, period))
+        .collect()
+}
+
+#[cfg(test)]
+mod tests;

@@ -1,0 +1,106 @@
+//! Each synthetic trajectory is classified as the kind it was built for, at a plausible time.
+
+use serde_json::json;
+
+use super::*;
+use crate::observe::synthetic;
+
+/// Time step of the synthetic runs (t* units, H = U_w = 1).
+const DT: f64 = 0.01;
+
+fn shear(n: usize) -> CaseSpec {
+    CaseSpec::from_value(json!({
+        "geometry": {"confined_shear": {"h": 1.0, "l": 4.0}},
+        "fluid": {"model": "giesekus", "wi": 2.0, "alpha": 0.01, "beta": 0.1},
+        "particles": {"radius": 0.1, "layout": {"string": {"n": n, "lx": 0.5, "ly": 0.1}}},
+        "numerics": {"mesh": [40, 10], "dt": DT, "t_end": 60.0}
+    }))
+    .unwrap()
+}
+
+fn couette() -> CaseSpec {
+    CaseSpec::from_value(json!({
+        "geometry": {"couette": {"r1": 1.0, "r2": 4.0}},
+        "fluid": {"model": "giesekus", "wi": 1.0, "alpha": 0.1, "beta": 0.1},
+        "particles": {"eps": 0.2, "layout": {"couette": {"r0_star": 0.3}}},
+        "numerics": {"mesh": [40, 160], "dt": DT, "t_end": 20.0}
+    }))
+    .unwrap()
+}
+
+/// Runs the classifier over a synthetic trajectory up to the case's end time.
+fn classify(kind: OutcomeKind, spec: &CaseSpec) -> Outcome {
+    let mut c = Classifier::new(spec);
+    let steps = (spec.numerics.t_end / spec.numerics.dt).round() as u64;
+    for step in 1..=steps {
+        let t = step as f64 * spec.numerics.dt;
+        if c.push(&synthetic::sample(kind, spec, step, t)).is_some() {
+            break;
+        }
+    }
+    c.finish()
+}
+
+#[test]
+fn string_of_three_is_decided_by_the_omega_criterion() {
+    let o = classify(OutcomeKind::String, &shear(3));
+    assert_eq!(o.kind, OutcomeKind::String);
+    assert_eq!(o.string_length, Some(3));
+    // Gaps of 0.1a were built in.
+    assert!((o.mean_gap.unwrap() - 0.1).abs() < 1e-3, "{:?}", o.mean_gap);
+    assert!(o.t_decided > 5.0 && o.t_decided < 30.0, "{}", o.t_decided);
+}
+
+#[test]
+fn every_shear_kind_is_recognised() {
+    for kind in [
+        OutcomeKind::Repel,
+        OutcomeKind::Pass,
+        OutcomeKind::Jammed,
+        OutcomeKind::WallContact,
+        OutcomeKind::Diverged,
+        OutcomeKind::Timeout,
+    ] {
+        for n in [2, 3] {
+            let o = classify(kind, &shear(n));
+            assert_eq!(o.kind, kind, "n = {n}, final {}", o.final_state);
+        }
+    }
+    // A single particle that reaches a steady rotation is `steady`, not a string.
+    assert_eq!(
+        classify(OutcomeKind::Steady, &shear(1)).kind,
+        OutcomeKind::Steady
+    );
+    // Steady but 4a apart: not a chain.
+    assert_eq!(
+        classify(OutcomeKind::Steady, &shear(3)).kind,
+        OutcomeKind::Steady
+    );
+}
+
+#[test]
+fn couette_migration_by_final_r_star() {
+    let o = classify(OutcomeKind::Migrated, &couette());
+    assert_eq!(o.kind, OutcomeKind::Migrated);
+    let r = o.final_state["r_star"][0].as_f64().unwrap();
+    assert!((r - 0.4).abs() < 0.01, "r* = {r}");
+    assert_eq!(
+        classify(OutcomeKind::Steady, &couette()).kind,
+        OutcomeKind::Steady
+    );
+    assert_eq!(
+        classify(OutcomeKind::WallContact, &couette()).kind,
+        OutcomeKind::WallContact
+    );
+}
+
+#[test]
+fn a_reported_divergence_carries_its_reason() {
+    let spec = shear(2);
+    let mut c = Classifier::new(&spec);
+    c.push(&synthetic::sample(OutcomeKind::Timeout, &spec, 1, DT));
+    let o = c.diverged(DT, "Newton did not converge");
+    assert_eq!(o.kind, OutcomeKind::Diverged);
+    assert_eq!(o.final_state["reason"], "Newton did not converge");
+    assert_eq!(c.finish().kind, OutcomeKind::Diverged);
+}

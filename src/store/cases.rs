@@ -1,0 +1,374 @@
+//! Writing sweeps, runs and cases: registration, claiming a case (pending → running), checkpoints of
+//! samples, and the one transaction that records a finished case.
+
+use rusqlite::{params, OptionalExtension, TransactionBehavior};
+
+use super::{code_version, hostname, machine, Result, Store};
+use crate::config::SweepSpec;
+use crate::observe::{Outcome, Sample};
+use crate::sweep::PlannedCase;
+
+/// Everything recorded when a case ends.
+#[derive(Debug, Clone)]
+pub struct CaseRecord {
+    /// Samples not yet written by a checkpoint.
+    pub samples: Vec<Sample>,
+    /// The outcome; `None` for a failed run.
+    pub outcome: Option<Outcome>,
+    /// Error text (failed) or divergence reason.
+    pub error: Option<String>,
+    /// Wall-clock seconds.
+    pub wall_s: f64,
+    /// Time steps taken.
+    pub steps: u64,
+    /// Simulated time reached.
+    pub t_reached: f64,
+    /// The run that produced it.
+    pub run_id: i64,
+}
+
+/// Per-sweep case counts for `xpflow status`.
+#[derive(Debug, Clone, PartialEq, Eq)]
+pub struct SweepCounts {
+    /// Sweep name.
+    pub name: String,
+    /// Cases in the sweep.
+    pub total: i64,
+    /// Finished (any outcome, including `diverged`).
+    pub done: i64,
+    /// Claimed by a run that is in progress (or was killed; a rerun resets those).
+    pub running: i64,
+    /// Runs that could not be carried out.
+    pub failed: i64,
+    /// Not started.
+    pub pending: i64,
+}
+
+/// This process' owner tag for claimed cases: `host:pid`.
+fn owner() -> String {
+    format!("{}:{}", hostname(), std::process::id())
+}
+
+/// True if a process with this id is alive on this host (Linux `/proc`; zombies count as dead).
+fn pid_alive(pid: i64) -> bool {
+    if pid == i64::from(std::process::id()) {
+        return true;
+    }
+    match std::fs::read_to_string(format!("/proc/{pid}/stat")) {
+        // The state is the first field after the parenthesised command name.
+        Ok(stat) => stat
+            .rsplit_once(')')
+            .is_some_and(|(_, rest)| !rest.trim_start().starts_with(['Z', 'X'])),
+        Err(_) => false,
+    }
+}
+
+impl Store {
+    /// Records the sweep (or updates the spec of an existing sweep of that name); returns its id.
+    pub fn register_sweep(&mut self, sweep: &SweepSpec) -> Result<i64> {
+        let spec = sweep.raw.to_string();
+        let err = self.sql_err();
+        self.conn
+            .execute(
+                "INSERT INTO sweeps (name, spec_json, code_version, machine) VALUES (?1, ?2, ?3, ?4)
+                 ON CONFLICT(name) DO UPDATE SET spec_json = excluded.spec_json",
+                params![sweep.name, spec, code_version(), machine()],
+            )
+            .map_err(&err)?;
+        self.conn
+            .query_row(
+                "SELECT id FROM sweeps WHERE name = ?1",
+                params![sweep.name],
+                |r| r.get(0),
+            )
+            .map_err(err)
+    }
+
+    /// Starts a run record (this invocation) of a sweep.
+    pub fn begin_run(&mut self, sweep_id: i64, jobs: usize, spec_json: &str) -> Result<i64> {
+        let err = self.sql_err();
+        self.conn
+            .execute(
+                "INSERT INTO runs (sweep_id, code_version, machine, pid, jobs, spec_json) VALUES (?1, ?2, ?3, ?4, ?5, ?6)",
+                params![sweep_id, code_version(), machine(), std::process::id(), jobs as i64, spec_json],
+            )
+            .map_err(err)?;
+        Ok(self.conn.last_insert_rowid())
+    }
+
+    /// Marks a run finished.
+    pub fn finish_run(&mut self, run_id: i64) -> Result<()> {
+        self.conn
+            .execute(
+                "UPDATE runs SET finished_at = strftime('%Y-%m-%dT%H:%M:%fZ', 'now') WHERE id = ?1",
+                params![run_id],
+            )
+            .map_err(self.sql_err())?;
+        Ok(())
+    }
+
+    /// Inserts the sweep's cases that are not in the database yet (as `pending`) and links all of them to
+    /// the sweep, in one transaction.
+    pub fn add_cases(&mut self, sweep_id: i64, cases: &[PlannedCase]) -> Result<()> {
+        let err = self.sql_err();
+        let path = self.path.clone();
+        let tx = self
+            .conn
+            .transaction_with_behavior(TransactionBehavior::Immediate)
+            .map_err(&err)?;
+        {
+            let mut insert = tx
+                .prepare(
+                    "INSERT OR IGNORE INTO cases (sweep_id, case_hash, label, geometry, params_json, wi, alpha, beta,
+                        delta, n_particles, a, h, l, lx, ly, r0, eps, mesh, dt, t_end)
+                     VALUES (?1, ?2, ?3, ?4, ?5, ?6, ?7, ?8, ?9, ?10, ?11, ?12, ?13, ?14, ?15, ?16, ?17, ?18, ?19, ?20)",
+                )
+                .map_err(&err)?;
+            let mut link = tx
+                .prepare(
+                    "INSERT OR IGNORE INTO sweep_cases (sweep_id, case_id, case_index, label)
+                     SELECT ?1, id, ?2, ?3 FROM cases WHERE case_hash = ?4",
+                )
+                .map_err(&err)?;
+            for c in cases {
+                let s = &c.spec;
+                let params_json = serde_json::to_string(s).unwrap_or_default();
+                let (h, l) = s.channel().unzip();
+                let (lx, ly) = s.spacing().unzip();
+                insert
+                    .execute(params![
+                        sweep_id,
+                        c.id,
+                        c.label,
+                        s.geometry.kind(),
+                        params_json,
+                        s.fluid.wi,
+                        s.fluid.alpha,
+                        s.fluid.beta,
+                        s.delta(),
+                        s.n_particles() as i64,
+                        s.radius(),
+                        h,
+                        l,
+                        lx,
+                        ly,
+                        s.r0_star(),
+                        s.eps(),
+                        format!("{}x{}", s.numerics.mesh[0], s.numerics.mesh[1]),
+                        s.numerics.dt,
+                        s.numerics.t_end
+                    ])
+                    .map_err(|source| super::StoreError::Sql {
+                        path: path.clone(),
+                        source,
+                    })?;
+                link.execute(params![sweep_id, c.index as i64, c.label, c.id])
+                    .map_err(&err)?;
+            }
+        }
+        tx.commit().map_err(err)
+    }
+
+    /// Resets the sweep's `running` cases whose owner process is gone (killed sweep) to `pending`, and with
+    /// `retry_failed` its `failed` cases too; returns how many were reset.
+    pub fn reset_interrupted(&mut self, sweep_id: i64, retry_failed: bool) -> Result<usize> {
+        let err = self.sql_err();
+        let host = hostname();
+        let running: Vec<(i64, Option<String>, Option<i64>)> = {
+            let mut st = self
+                .conn
+                .prepare(
+                    "SELECT c.id, c.owner, c.owner_pid FROM cases c JOIN sweep_cases sc ON sc.case_id = c.id
+                     WHERE sc.sweep_id = ?1 AND c.status = 'running'",
+                )
+                .map_err(&err)?;
+            let rows = st
+                .query_map(params![sweep_id], |r| Ok((r.get(0)?, r.get(1)?, r.get(2)?)))
+                .map_err(&err)?;
+            rows.collect::<rusqlite::Result<_>>().map_err(&err)?
+        };
+        let mut reset = 0;
+        for (id, owner, pid) in running {
+            let same_host = owner
+                .as_deref()
+                .is_some_and(|o| o.rsplit_once(':').is_some_and(|(h, _)| h == host));
+            let dead = match (same_host, pid) {
+                (true, Some(pid)) => !pid_alive(pid),
+                (_, None) => true,
+                // Another host: cannot tell; leave it (documented in docs/sweeps.md).
+                (false, Some(_)) => false,
+            };
+            if dead {
+                reset += self
+                    .conn
+                    .execute(
+                        "UPDATE cases SET status = 'pending', owner = NULL, owner_pid = NULL
+                         WHERE id = ?1 AND status = 'running' AND owner IS ?2",
+                        params![id, owner],
+                    )
+                    .map_err(&err)?;
+            }
+        }
+        if retry_failed {
+            reset += self
+                .conn
+                .execute(
+                    "UPDATE cases SET status = 'pending', error = NULL WHERE status = 'failed'
+                     AND id IN (SELECT case_id FROM sweep_cases WHERE sweep_id = ?1)",
+                    params![sweep_id],
+                )
+                .map_err(&err)?;
+        }
+        Ok(reset)
+    }
+
+    /// Claims a pending case for this process (pending → running) and clears any partial rows of an
+    /// earlier interrupted attempt; returns the case's row id, or `None` if it is not pending.
+    pub fn claim(&mut self, case_hash: &str) -> Result<Option<i64>> {
+        let err = self.sql_err();
+        let tx = self
+            .conn
+            .transaction_with_behavior(TransactionBehavior::Immediate)
+            .map_err(&err)?;
+        let id: Option<i64> = tx
+            .query_row(
+                "SELECT id FROM cases WHERE case_hash = ?1 AND status = 'pending'",
+                params![case_hash],
+                |r| r.get(0),
+            )
+            .optional()
+            .map_err(&err)?;
+        if let Some(id) = id {
+            tx.execute(
+                "UPDATE cases SET status = 'running', owner = ?2, owner_pid = ?3, error = NULL,
+                    started_at = strftime('%Y-%m-%dT%H:%M:%fZ', 'now') WHERE id = ?1",
+                params![id, owner(), std::process::id()],
+            )
+            .map_err(&err)?;
+            for table in [
+                "DELETE FROM samples WHERE case_id = ?1",
+                "DELETE FROM outcomes WHERE case_id = ?1",
+                "DELETE FROM snapshots WHERE case_id = ?1",
+            ] {
+                tx.execute(table, params![id]).map_err(&err)?;
+            }
+        }
+        tx.commit().map_err(err)?;
+        Ok(id)
+    }
+
+    /// Writes samples of a running case (checkpoint), in one transaction.
+    pub fn write_samples(&mut self, case_id: i64, samples: &[Sample]) -> Result<()> {
+        let err = self.sql_err();
+        let tx = self
+            .conn
+            .transaction_with_behavior(TransactionBehavior::Immediate)
+            .map_err(&err)?;
+        insert_samples(&tx, case_id, samples).map_err(&err)?;
+        tx.commit().map_err(err)
+    }
+
+    /// Records a snapshot file of a running case.
+    pub fn record_snapshot(&mut self, case_id: i64, step: u64, t: f64, file: &str) -> Result<()> {
+        self.conn
+            .execute(
+                "INSERT OR REPLACE INTO snapshots (case_id, step, t, file) VALUES (?1, ?2, ?3, ?4)",
+                params![case_id, step as i64, t, file],
+            )
+            .map_err(self.sql_err())?;
+        Ok(())
+    }
+
+    /// Records a finished (or failed) case in one transaction: remaining samples, outcome, status.
+    pub fn finish_case(&mut self, case_id: i64, rec: &CaseRecord) -> Result<()> {
+        let err = self.sql_err();
+        let tx = self
+            .conn
+            .transaction_with_behavior(TransactionBehavior::Immediate)
+            .map_err(&err)?;
+        insert_samples(&tx, case_id, &rec.samples).map_err(&err)?;
+        let status = if let Some(o) = &rec.outcome {
+            tx.execute(
+                "INSERT OR REPLACE INTO outcomes (case_id, kind, string_length, t_decided, mean_gap, final_json)
+                 VALUES (?1, ?2, ?3, ?4, ?5, ?6)",
+                params![
+                    case_id,
+                    o.kind.as_str(),
+                    o.string_length.map(|n| n as i64),
+                    o.t_decided,
+                    o.mean_gap,
+                    o.final_state.to_string()
+                ],
+            )
+            .map_err(&err)?;
+            "done"
+        } else {
+            "failed"
+        };
+        tx.execute(
+            "UPDATE cases SET status = ?2, finished_at = strftime('%Y-%m-%dT%H:%M:%fZ', 'now'), wall_s = ?3,
+                steps = ?4, t_reached = ?5, run_id = ?6, error = ?7, owner = NULL, owner_pid = NULL
+             WHERE id = ?1",
+            params![case_id, status, rec.wall_s, rec.steps as i64, rec.t_reached, rec.run_id, rec.error],
+        )
+        .map_err(&err)?;
+        tx.commit().map_err(err)
+    }
+
+    /// Case counts per sweep (all sweeps, or the one named).
+    pub fn counts(&self, sweep: Option<&str>) -> Result<Vec<SweepCounts>> {
+        let err = self.sql_err();
+        let mut st = self
+            .conn
+            .prepare(
+                "SELECT s.name, COUNT(c.id),
+                        COALESCE(SUM(c.status = 'done'), 0), COALESCE(SUM(c.status = 'running'), 0),
+                        COALESCE(SUM(c.status = 'failed'), 0), COALESCE(SUM(c.status = 'pending'), 0)
+                 FROM sweeps s LEFT JOIN sweep_cases sc ON sc.sweep_id = s.id LEFT JOIN cases c ON c.id = sc.case_id
+                 WHERE ?1 IS NULL OR s.name = ?1
+                 GROUP BY s.id ORDER BY s.name",
+            )
+            .map_err(&err)?;
+        let rows = st
+            .query_map(params![sweep], |r| {
+                Ok(SweepCounts {
+                    name: r.get(0)?,
+                    total: r.get(1)?,
+                    done: r.get(2)?,
+                    running: r.get(3)?,
+                    failed: r.get(4)?,
+                    pending: r.get(5)?,
+                })
+            })
+            .map_err(&err)?;
+        rows.collect::<rusqlite::Result<_>>().map_err(err)
+    }
+}
+
+fn insert_samples(
+    tx: &rusqlite::Transaction<'_>,
+    case_id: i64,
+    samples: &[Sample],
+) -> rusqlite::Result<()> {
+    let mut st = tx.prepare(
+        "INSERT OR REPLACE INTO samples (case_id, step, t, particle, x, y, u, v, omega, theta)
+         VALUES (?1, ?2, ?3, ?4, ?5, ?6, ?7, ?8, ?9, ?10)",
+    )?;
+    for s in samples {
+        for (k, p) in s.particles.iter().enumerate() {
+            st.execute(params![
+                case_id,
+                s.step as i64,
+                s.t,
+                k as i64,
+                p.x,
+                p.y,
+                p.u,
+                p.v,
+                p.omega,
+                p.theta
+            ])?;
+        }
+    }
+    Ok(())
+}

@@ -1,0 +1,328 @@
+//! Thesis-style tables from the database: string formation Wi × N (thesis Table 5.2), regime map δ × Wi
+//! (Fig. 5.26), final r* by parameter (Couette, 3.5), case lists and raw trajectories. Filters are
+//! `column=value` with the column from [`FILTER_COLUMNS`]; values are always bound as SQL parameters.
+
+use std::collections::{BTreeMap, BTreeSet};
+
+use rusqlite::params_from_iter;
+use rusqlite::types::Value as SqlValue;
+use serde_json::{json, Value};
+
+use super::{Result, Store, StoreError, Table};
+
+/// Columns of `cases`/`outcomes` a filter may name (identifiers cannot be bound, so they are whitelisted).
+pub const FILTER_COLUMNS: [&str; 22] = [
+    "wi",
+    "alpha",
+    "beta",
+    "delta",
+    "n_particles",
+    "a",
+    "h",
+    "l",
+    "lx",
+    "ly",
+    "r0",
+    "eps",
+    "mesh",
+    "dt",
+    "t_end",
+    "status",
+    "kind",
+    "geometry",
+    "label",
+    "case_hash",
+    "string_length",
+    "error",
+];
+
+/// Relative tolerance when a numeric filter matches a stored value, so `wi=0.3` finds 0.30000000000000004.
+const FILTER_REL_TOL: f64 = 1e-9;
+
+/// One `column=value` condition.
+#[derive(Debug, Clone, PartialEq)]
+pub struct Filter {
+    /// Whitelisted column.
+    pub column: &'static str,
+    /// Value: numbers match within a relative 1e-9, text exactly.
+    pub value: Value,
+}
+
+impl std::str::FromStr for Filter {
+    type Err = String;
+
+    /// Parses `column=value`.
+    fn from_str(s: &str) -> std::result::Result<Self, String> {
+        let (col, val) = s
+            .split_once('=')
+            .ok_or_else(|| format!("filter `{s}` is not column=value"))?;
+        let column = FILTER_COLUMNS
+            .iter()
+            .find(|c| **c == col.trim())
+            .ok_or_else(|| {
+                format!(
+                    "unknown filter column `{col}`; use one of {}",
+                    FILTER_COLUMNS.join(", ")
+                )
+            })?;
+        let val = val.trim();
+        let value = val
+            .parse::<f64>()
+            .map(Value::from)
+            .unwrap_or_else(|_| Value::from(val));
+        Ok(Filter { column, value })
+    }
+}
+
+/// What to tabulate.
+#[derive(Debug, Clone, PartialEq)]
+pub enum QueryKind {
+    /// '+' if a string formed, '−' if not, per Wi (rows) × N (columns) — thesis Table 5.2.
+    StringFormation,
+    /// Outcome kinds per δ (rows) × Wi (columns) — thesis Fig. 5.26.
+    Regime,
+    /// Final r* of Couette cases, sorted by the given column.
+    FinalRStar(&'static str),
+    /// One row per case with its status and outcome.
+    Cases,
+    /// Samples of the case with this id (hash prefix accepted).
+    Trajectory(String),
+}
+
+fn where_clause(sweep: Option<&str>, filters: &[Filter]) -> (String, Vec<SqlValue>) {
+    let mut sql = String::from(" WHERE 1 = 1");
+    let mut args: Vec<SqlValue> = Vec::new();
+    if let Some(name) = sweep {
+        args.push(SqlValue::Text(name.into()));
+        sql += &format!(
+            " AND c.id IN (SELECT sc.case_id FROM sweep_cases sc JOIN sweeps s ON s.id = sc.sweep_id WHERE s.name = ?{})",
+            args.len()
+        );
+    }
+    for f in filters {
+        match f.value.as_f64() {
+            Some(x) => {
+                args.push(SqlValue::Real(x));
+                let i = args.len();
+                sql += &format!(
+                    " AND abs(c.{} - ?{i}) <= {FILTER_REL_TOL:e} * max(1.0, abs(?{i}))",
+                    f.column
+                );
+            }
+            None => {
+                args.push(SqlValue::Text(f.value.as_str().unwrap_or_default().into()));
+                sql += &format!(" AND c.{} = ?{}", f.column, args.len());
+            }
+        }
+    }
+    (sql, args)
+}
+
+fn json_of(v: SqlValue) -> Value {
+    match v {
+        SqlValue::Null => Value::Null,
+        SqlValue::Integer(i) => json!(i),
+        SqlValue::Real(x) => json!(x),
+        SqlValue::Text(s) => json!(s),
+        SqlValue::Blob(_) => json!("<blob>"),
+    }
+}
+
+impl Store {
+    /// Runs a query over all sweeps or the named one, restricted by `filters`.
+    pub fn query(
+        &self,
+        kind: &QueryKind,
+        sweep: Option<&str>,
+        filters: &[Filter],
+    ) -> Result<Table> {
+        let (cond, args) = where_clause(sweep, filters);
+        match kind {
+            QueryKind::StringFormation => {
+                let rows = self.rows(
+                    &format!(
+                        "SELECT c.wi, c.n_particles, c.status, c.kind FROM case_outcomes c{cond}"
+                    ),
+                    &args,
+                )?;
+                let mut cells: BTreeMap<(Key, i64), String> = BTreeMap::new();
+                for r in rows {
+                    let (Some(wi), Some(n)) = (r[0].as_f64(), r[1].as_i64()) else {
+                        continue;
+                    };
+                    let mark = match (r[2].as_str(), r[3].as_str()) {
+                        (_, Some("string")) => "+",
+                        (Some("done"), Some(_)) => "-",
+                        _ => "?",
+                    };
+                    let e = cells.entry((Key(wi), n)).or_insert_with(|| mark.into());
+                    // '+' wins over '-', which wins over '?' (pending).
+                    if mark == "+" || (mark == "-" && e == "?") {
+                        *e = mark.into();
+                    }
+                }
+                Ok(pivot("Wi", "N=", cells, |k| json!(k)))
+            }
+            QueryKind::Regime => {
+                let rows = self.rows(&format!("SELECT c.delta, c.wi, c.kind FROM case_outcomes c{cond} AND c.kind IS NOT NULL"), &args)?;
+                let mut kinds: BTreeMap<(Key, Key), BTreeSet<String>> = BTreeMap::new();
+                for r in rows {
+                    let (Some(d), Some(wi), Some(k)) =
+                        (r[0].as_f64(), r[1].as_f64(), r[2].as_str())
+                    else {
+                        continue;
+                    };
+                    kinds
+                        .entry((Key(d), Key(wi)))
+                        .or_default()
+                        .insert(k.to_string());
+                }
+                let cells = kinds
+                    .into_iter()
+                    .map(|(k, v)| (k, v.into_iter().collect::<Vec<_>>().join("/")))
+                    .collect();
+                Ok(pivot("delta", "Wi=", cells, |k: Key| json!(k.0)))
+            }
+            QueryKind::FinalRStar(by) => {
+                let sql = format!(
+                    "SELECT c.case_hash, c.label, c.{by}, c.r0, c.eps, c.wi, c.alpha, c.kind,
+                            json_extract(c.final_json, '$.r_star[0]') FROM case_outcomes c{cond}
+                     AND c.geometry = 'couette' AND c.kind IS NOT NULL ORDER BY c.{by}, c.r0, c.case_hash"
+                );
+                let cols = [
+                    "case",
+                    "label",
+                    by,
+                    "r0_star",
+                    "eps",
+                    "wi",
+                    "alpha",
+                    "kind",
+                    "r_star_final",
+                ];
+                Ok(Table {
+                    columns: cols.iter().map(|c| c.to_string()).collect(),
+                    rows: self.rows(&sql, &args)?,
+                })
+            }
+            QueryKind::Cases => {
+                let sql = format!(
+                    "SELECT c.case_hash, c.label, c.status, c.kind, c.string_length, c.t_decided, c.mean_gap, c.wall_s,
+                            c.error FROM case_outcomes c{cond} ORDER BY c.id"
+                );
+                let cols = [
+                    "case",
+                    "label",
+                    "status",
+                    "kind",
+                    "string_length",
+                    "t_decided",
+                    "mean_gap",
+                    "wall_s",
+                    "error",
+                ];
+                Ok(Table {
+                    columns: cols.iter().map(|c| c.to_string()).collect(),
+                    rows: self.rows(&sql, &args)?,
+                })
+            }
+            QueryKind::Trajectory(hash) => {
+                let mut args = args;
+                let ids = self.rows(
+                    &format!(
+                        "SELECT c.id FROM cases c{cond} AND c.case_hash LIKE ?{} || '%'",
+                        args.len() + 1
+                    ),
+                    &{
+                        args.push(SqlValue::Text(hash.clone()));
+                        args.clone()
+                    },
+                )?;
+                let id = match ids.as_slice() {
+                    [one] => one[0].clone(),
+                    [] => return Err(StoreError::BadQuery(format!("no case with id `{hash}`"))),
+                    _ => {
+                        return Err(StoreError::BadQuery(format!(
+                            "`{hash}` matches several cases; give more digits"
+                        )))
+                    }
+                };
+                let sql = "SELECT step, t, particle, x, y, u, v, omega, theta FROM samples WHERE case_id = ?1
+                           ORDER BY step, particle";
+                let cols = [
+                    "step", "t", "particle", "x", "y", "u", "v", "omega", "theta",
+                ];
+                let rows = self.rows(sql, &[SqlValue::Integer(id.as_i64().unwrap_or(-1))])?;
+                Ok(Table {
+                    columns: cols.iter().map(|c| c.to_string()).collect(),
+                    rows,
+                })
+            }
+        }
+    }
+
+    fn rows(&self, sql: &str, args: &[SqlValue]) -> Result<Vec<Vec<Value>>> {
+        let err = self.sql_err();
+        let mut st = self.conn.prepare(sql).map_err(&err)?;
+        let n = st.column_count();
+        let rows = st
+            .query_map(params_from_iter(args.iter()), |r| {
+                (0..n)
+                    .map(|i| r.get::<_, SqlValue>(i).map(json_of))
+                    .collect::<rusqlite::Result<Vec<_>>>()
+            })
+            .map_err(&err)?;
+        rows.collect::<rusqlite::Result<_>>().map_err(err)
+    }
+}
+
+/// A float usable as an ordered map key.
+#[derive(Debug, Clone, Copy, PartialEq)]
+struct Key(f64);
+impl Eq for Key {}
+impl PartialOrd for Key {
+    fn partial_cmp(&self, o: &Self) -> Option<std::cmp::Ordering> {
+        Some(self.cmp(o))
+    }
+}
+impl Ord for Key {
+    fn cmp(&self, o: &Self) -> std::cmp::Ordering {
+        self.0.total_cmp(&o.0)
+    }
+}
+impl serde::Serialize for Key {
+    fn serialize<S: serde::Serializer>(&self, s: S) -> std::result::Result<S::Ok, S::Error> {
+        s.serialize_f64(self.0)
+    }
+}
+
+/// Pivots (row key, column key) → cell into a table with one row per row key.
+fn pivot<C: Ord + Copy + std::fmt::Display>(
+    row_name: &str,
+    col_prefix: &str,
+    cells: BTreeMap<(Key, C), String>,
+    row_json: impl Fn(Key) -> Value,
+) -> Table {
+    let cols: BTreeSet<C> = cells.keys().map(|k| k.1).collect();
+    let rows: BTreeSet<Key> = cells.keys().map(|k| k.0).collect();
+    let mut columns = vec![row_name.to_string()];
+    columns.extend(cols.iter().map(|c| format!("{col_prefix}{c}")));
+    let rows = rows
+        .into_iter()
+        .map(|r| {
+            let mut row = vec![row_json(r)];
+            row.extend(
+                cols.iter()
+                    .map(|c| cells.get(&(r, *c)).map_or(Value::Null, |s| json!(s))),
+            );
+            row
+        })
+        .collect();
+    Table { columns, rows }
+}
+
+impl std::fmt::Display for Key {
+    fn fmt(&self, f: &mut std::fmt::Formatter<'_>) -> std::fmt::Result {
+        write!(f, "{}", self.0)
+    }
+}

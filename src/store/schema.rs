@@ -1,0 +1,84 @@
+//! The SQLite schema (version [`SCHEMA_VERSION`]). DESIGN.md's tables plus: `meta` (code version, machine),
+//! `runs` (one row per invocation of a sweep), `sweep_cases` (a case shared by several sweeps is run once),
+//! `snapshots` (HDF5 files), and on `cases` the columns `label`, `geometry`, `t_end`, `owner`, `owner_pid`,
+//! `steps`, `t_reached`, `run_id`. Views: `case_outcomes`, `string_formation`.
+
+/// Bumped whenever the schema changes; an older database is migrated by [`MIGRATIONS`].
+pub const SCHEMA_VERSION: i64 = 1;
+
+/// Statements creating version 1 from nothing (all idempotent).
+pub const CREATE: &str = r#"
+CREATE TABLE IF NOT EXISTS schema_version (version INTEGER NOT NULL);
+CREATE TABLE IF NOT EXISTS meta (key TEXT PRIMARY KEY, value TEXT NOT NULL);
+CREATE TABLE IF NOT EXISTS sweeps (
+    id INTEGER PRIMARY KEY,
+    name TEXT NOT NULL UNIQUE,
+    spec_json TEXT NOT NULL,
+    created_at TEXT NOT NULL DEFAULT (strftime('%Y-%m-%dT%H:%M:%fZ', 'now')),
+    code_version TEXT NOT NULL,
+    machine TEXT NOT NULL
+);
+CREATE TABLE IF NOT EXISTS runs (
+    id INTEGER PRIMARY KEY,
+    sweep_id INTEGER NOT NULL REFERENCES sweeps(id),
+    started_at TEXT NOT NULL DEFAULT (strftime('%Y-%m-%dT%H:%M:%fZ', 'now')),
+    finished_at TEXT,
+    code_version TEXT NOT NULL,
+    machine TEXT NOT NULL,
+    pid INTEGER NOT NULL,
+    jobs INTEGER NOT NULL,
+    spec_json TEXT NOT NULL
+);
+CREATE TABLE IF NOT EXISTS cases (
+    id INTEGER PRIMARY KEY,
+    sweep_id INTEGER NOT NULL REFERENCES sweeps(id),
+    case_hash TEXT NOT NULL UNIQUE,
+    label TEXT NOT NULL,
+    geometry TEXT NOT NULL,
+    params_json TEXT NOT NULL,
+    wi REAL, alpha REAL, beta REAL, delta REAL, n_particles INTEGER, a REAL, h REAL, l REAL,
+    lx REAL, ly REAL, r0 REAL, eps REAL, mesh TEXT, dt REAL, t_end REAL,
+    status TEXT NOT NULL DEFAULT 'pending' CHECK (status IN ('pending', 'running', 'done', 'failed')),
+    owner TEXT, owner_pid INTEGER,
+    started_at TEXT, finished_at TEXT, wall_s REAL, steps INTEGER, t_reached REAL,
+    run_id INTEGER REFERENCES runs(id),
+    error TEXT
+);
+CREATE INDEX IF NOT EXISTS cases_by_status ON cases(status);
+CREATE INDEX IF NOT EXISTS cases_by_wi_n ON cases(wi, n_particles);
+CREATE TABLE IF NOT EXISTS sweep_cases (
+    sweep_id INTEGER NOT NULL REFERENCES sweeps(id),
+    case_id INTEGER NOT NULL REFERENCES cases(id),
+    case_index INTEGER NOT NULL,
+    label TEXT NOT NULL,
+    PRIMARY KEY (sweep_id, case_id)
+);
+CREATE TABLE IF NOT EXISTS samples (
+    case_id INTEGER NOT NULL REFERENCES cases(id),
+    step INTEGER NOT NULL, t REAL NOT NULL, particle INTEGER NOT NULL,
+    x REAL, y REAL, u REAL, v REAL, omega REAL, theta REAL,
+    PRIMARY KEY (case_id, step, particle)
+) WITHOUT ROWID;
+CREATE TABLE IF NOT EXISTS outcomes (
+    case_id INTEGER PRIMARY KEY REFERENCES cases(id),
+    kind TEXT NOT NULL CHECK (kind IN ('string', 'repel', 'pass', 'jammed', 'wall_contact', 'migrated',
+                                        'steady', 'diverged', 'timeout')),
+    string_length INTEGER, t_decided REAL, mean_gap REAL, final_json TEXT NOT NULL
+);
+CREATE TABLE IF NOT EXISTS snapshots (
+    case_id INTEGER NOT NULL REFERENCES cases(id),
+    step INTEGER NOT NULL, t REAL NOT NULL, file TEXT NOT NULL,
+    PRIMARY KEY (case_id, step)
+);
+CREATE VIEW IF NOT EXISTS case_outcomes AS
+    SELECT c.*, o.kind, o.string_length, o.t_decided, o.mean_gap, o.final_json
+    FROM cases c LEFT JOIN outcomes o ON o.case_id = c.id;
+CREATE VIEW IF NOT EXISTS string_formation AS
+    SELECT c.wi, c.n_particles, c.alpha, c.beta, c.delta,
+           MAX(o.kind = 'string') AS formed, COUNT(*) AS cases
+    FROM cases c JOIN outcomes o ON o.case_id = c.id
+    GROUP BY c.wi, c.n_particles, c.alpha, c.beta, c.delta;
+"#;
+
+/// Migrations from version i to i + 1, applied in order (none yet).
+pub const MIGRATIONS: &[&str] = &[];

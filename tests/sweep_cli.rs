@@ -1,0 +1,252 @@
+//! The sweep/query/status handlers as functions: example sweeps validate, invalid sweep files exit with
+//! code 2 naming file, case and field and write nothing, unsupported cases write nothing, queries render.
+
+use std::path::{Path, PathBuf};
+use std::process::ExitCode;
+
+use xpflow::cli::sweep_cmds::{
+    run_query_to, run_status_to, run_sweep_with, QueryArgs, QueryWhat, StatusArgs, SweepArgs,
+};
+use xpflow::config::{ConfigError, SweepSpec};
+use xpflow::observe::OutcomeKind;
+use xpflow::store::Format;
+use xpflow::sweep::{expand, FakeBehaviour, FakeRunner, UnbuiltSolver};
+
+fn scratch(name: &str) -> PathBuf {
+    let d = std::env::temp_dir().join(format!("xpflow-cli-{name}-{}", std::process::id()));
+    let _ = std::fs::remove_dir_all(&d);
+    std::fs::create_dir_all(&d).unwrap();
+    d
+}
+
+fn args(file: &Path, db: &Path) -> SweepArgs {
+    SweepArgs {
+        file: file.into(),
+        db: Some(db.into()),
+        jobs: Some(2),
+        dry_run: false,
+        quiet: true,
+        retry_failed: false,
+    }
+}
+
+const GOOD: &str = r#"
+name = "cli"
+[base]
+geometry.confined_shear = { h = 1.0, l = 4.0 }
+fluid = { model = "giesekus", wi = 1.0, alpha = 0.01, beta = 0.1 }
+particles = { radius = 0.1, layout.string = { n = 3, lx = 0.5, ly = 0.1 } }
+numerics = { mesh = [40, 10], dt = 0.01, t_end = 30.0 }
+[axes]
+fluid.wi = [1, 2]
+"#;
+
+#[test]
+fn example_sweeps_pass_dry_run() {
+    let dir = Path::new(env!("CARGO_MANIFEST_DIR")).join("sweeps");
+    let mut n = 0;
+    for entry in std::fs::read_dir(&dir).unwrap() {
+        let path = entry.unwrap().path();
+        if path.extension().is_some_and(|e| e == "toml") {
+            let mut out = Vec::new();
+            let mut a = args(&path, Path::new("/nonexistent/never.db"));
+            a.dry_run = true;
+            let code = run_sweep_with(&a, &UnbuiltSolver, &mut out).unwrap();
+            assert_eq!(code, ExitCode::SUCCESS, "{}", path.display());
+            let text = String::from_utf8(out).unwrap();
+            assert!(text.contains(" cases in sweep "), "{text}");
+            n += 1;
+        }
+    }
+    assert!(
+        n >= 4,
+        "expected the thesis sweeps and demo.toml, found {n}"
+    );
+}
+
+#[test]
+fn invalid_sweeps_exit_2_and_write_nothing() {
+    let dir = scratch("invalid");
+    let bad: [(&str, String, &str); 12] = [
+        (
+            "malformed",
+            GOOD.replace("name = \"cli\"", "name = = 1"),
+            "",
+        ),
+        (
+            "unknown key",
+            GOOD.replace("beta = 0.1", "beta = 0.1, betta = 1"),
+            "fluid.betta",
+        ),
+        (
+            "wrong type",
+            GOOD.replace("t_end = 30.0", "t_end = \"long\""),
+            "numerics.t_end",
+        ),
+        (
+            "a >= H/2",
+            GOOD.replace("radius = 0.1", "radius = 0.5"),
+            "particles.radius",
+        ),
+        (
+            "overlap",
+            GOOD.replace("lx = 0.5", "lx = 0.15"),
+            "particles.layout.string",
+        ),
+        (
+            "wall",
+            GOOD.replace("ly = 0.1", "ly = 0.45"),
+            "particles.layout.string",
+        ),
+        (
+            "Wi < 0",
+            GOOD.replace("fluid.wi = [1, 2]", "fluid.wi = [1, -2]"),
+            "fluid.wi",
+        ),
+        (
+            "alpha",
+            GOOD.replace("alpha = 0.01", "alpha = 1.0"),
+            "fluid.alpha",
+        ),
+        (
+            "beta",
+            GOOD.replace("beta = 0.1", "beta = 1.0"),
+            "fluid.beta",
+        ),
+        ("dt", GOOD.replace("dt = 0.01", "dt = 0.0"), "numerics.dt"),
+        (
+            "N = 0",
+            GOOD.replace("n = 3", "n = 0"),
+            "particles.layout.string.n",
+        ),
+        (
+            "axis path",
+            GOOD.replace("fluid.wi = [1, 2]", "fluid.wii = [1, 2]"),
+            "fluid.wii",
+        ),
+    ];
+    for (what, text, field) in bad {
+        let file = dir.join("bad.toml");
+        std::fs::write(&file, &text).unwrap();
+        let db = dir.join("never.db");
+        let _ = std::fs::remove_file(&db);
+        let code = run_sweep_with(
+            &args(&file, &db),
+            &FakeRunner::new(|_| FakeBehaviour::Fail("x".into())),
+            &mut Vec::new(),
+        )
+        .unwrap();
+        assert_eq!(code, ExitCode::from(2), "{what}");
+        assert!(!db.exists(), "{what}: nothing may be written");
+        // The message names the file, the case and the field.
+        let err = SweepSpec::from_file(&file)
+            .and_then(|s| expand(&s).map(|_| ()))
+            .unwrap_err();
+        let msg = err.to_string();
+        assert!(msg.contains("bad.toml"), "{what}: {msg}");
+        if !field.is_empty() {
+            assert_eq!(err.field(), Some(field), "{what}: {msg}");
+            assert!(msg.contains(field), "{what}: {msg}");
+            if let ConfigError::Case { .. } = err {
+                assert!(msg.contains("case "), "{what}: {msg}");
+            }
+        }
+    }
+}
+
+#[test]
+fn unsupported_cases_exit_2_and_write_nothing() {
+    let dir = scratch("unsupported");
+    let file = dir.join("s.toml");
+    std::fs::write(&file, GOOD).unwrap();
+    let db = dir.join("r.db");
+    let code = run_sweep_with(&args(&file, &db), &UnbuiltSolver, &mut Vec::new()).unwrap();
+    assert_eq!(code, ExitCode::from(2));
+    assert!(!db.exists());
+}
+
+#[test]
+fn sweep_then_query_and_status() {
+    let dir = scratch("query");
+    let file = dir.join("s.toml");
+    std::fs::write(&file, GOOD).unwrap();
+    let db = dir.join("r.db");
+    let runner = FakeRunner::new(|s| {
+        FakeBehaviour::Produce(if s.fluid.wi > 1.5 {
+            OutcomeKind::String
+        } else {
+            OutcomeKind::Repel
+        })
+    });
+    assert_eq!(
+        run_sweep_with(&args(&file, &db), &runner, &mut Vec::new()).unwrap(),
+        ExitCode::SUCCESS
+    );
+
+    let q = |what, filters: Vec<&str>, format| {
+        let a = QueryArgs {
+            what,
+            db: db.clone(),
+            sweep: Some("cli".into()),
+            filters: filters.into_iter().map(String::from).collect(),
+            case: None,
+            by: "r0".into(),
+            format,
+        };
+        let mut out = Vec::new();
+        let code = run_query_to(&a, &mut out).unwrap();
+        (code, String::from_utf8(out).unwrap())
+    };
+    let (code, json) = q(QueryWhat::Strings, vec![], Format::Json);
+    assert_eq!(code, ExitCode::SUCCESS);
+    let v: serde_json::Value = serde_json::from_str(&json).unwrap();
+    assert_eq!(
+        v,
+        serde_json::json!([{"Wi": 1.0, "N=3": "-"}, {"Wi": 2.0, "N=3": "+"}])
+    );
+    // A filter value that looks like SQL is just a value.
+    let (code, csv) = q(QueryWhat::Cases, vec!["label=x' OR '1'='1"], Format::Csv);
+    assert_eq!(code, ExitCode::SUCCESS);
+    assert_eq!(csv.lines().count(), 1, "header only: {csv}");
+    let (code, _) = q(QueryWhat::Cases, vec!["nonsense=1"], Format::Csv);
+    assert_eq!(code, ExitCode::from(2));
+    let (_, cases) = q(QueryWhat::Cases, vec!["wi=2"], Format::Csv);
+    let id = cases
+        .lines()
+        .nth(1)
+        .unwrap()
+        .split(',')
+        .next()
+        .unwrap()
+        .to_string();
+    let a = QueryArgs {
+        what: QueryWhat::Trajectory,
+        db: db.clone(),
+        sweep: None,
+        filters: vec![],
+        case: Some(id[..8].into()),
+        by: "r0".into(),
+        format: Format::Csv,
+    };
+    let mut out = Vec::new();
+    run_query_to(&a, &mut out).unwrap();
+    let traj = String::from_utf8(out).unwrap();
+    assert!(
+        traj.starts_with("step,t,particle,x,y,u,v,omega,theta\n10,"),
+        "{}",
+        &traj[..80.min(traj.len())]
+    );
+
+    let mut out = Vec::new();
+    run_status_to(
+        &StatusArgs {
+            db: vec![db.clone()],
+        },
+        &mut out,
+    )
+    .unwrap();
+    let status = String::from_utf8(out).unwrap();
+    let row = status.lines().nth(1).unwrap();
+    let cells: Vec<&str> = row.split_whitespace().collect();
+    assert_eq!(&cells[1..], ["cli", "2", "2", "0", "0", "0"], "{status}");
+}
