@@ -27,14 +27,11 @@ pub enum Command {
         case: std::path::PathBuf,
     },
     /// Expand a sweep file into cases and run them (resumable).
-    Sweep {
-        /// Sweep file (TOML or JSON).
-        sweep: std::path::PathBuf,
-    },
+    Sweep(sweep_cmds::SweepArgs),
     /// Print results tables from a results database.
-    Query,
+    Query(sweep_cmds::QueryArgs),
     /// Per-sweep counts of done / running / failed / pending cases.
-    Status,
+    Status(sweep_cmds::StatusArgs),
     /// Run a validation study and print its numbers and verdict.
     Validate {
         /// Which study.
@@ -123,9 +120,9 @@ fn not_built(what: &str, issue: &str) -> anyhow::Result<ExitCode> {
 pub fn run(cli: Cli) -> anyhow::Result<ExitCode> {
     match cli.command {
         Command::Run { .. } => not_built("run", "moving-particle solver: issues 3 and 5"),
-        Command::Sweep { .. } => not_built("sweep", "sweep engine: issue 6"),
-        Command::Query => not_built("query", "results store: issue 6"),
-        Command::Status => not_built("status", "results store: issue 6"),
+        Command::Sweep(args) => sweep_cmds::run_sweep(&args),
+        Command::Query(args) => sweep_cmds::run_query(&args),
+        Command::Status(args) => sweep_cmds::run_status(&args),
         Command::Validate {
             study,
             levels,
