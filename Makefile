@@ -52,8 +52,32 @@ bench: build
 	$(BIN) bench stokes --mesh 440x110 --with-g
 	$(BIN) bench stokes --mesh 200x50 --solver lu --repeats 2
 
-figures:
-	@echo "figures are not built yet (issue 7)"; exit 3
+# Figures and tables from results databases (plotting/, docs/figures.md): `make figures` plots every
+# results/*.db, `make figures DB=results/demo.db` one (or several, space-separated) into results/figures/<db>/.
+# figures-deps makes the Python virtual environment .venv/ with plotting/requirements.txt (reinstalled when
+# that file changes); it needs python3 >= 3.11 with venv/pip (installs Debian's python3-venv if missing).
+DB      ?=
+VENV    := .venv
+FIG_OUT ?= results/figures
+
+.PHONY: figures-deps
+figures-deps: $(VENV)/.requirements-installed
+
+$(VENV)/.requirements-installed: plotting/requirements.txt
+	@command -v python3 >/dev/null 2>&1 || { echo "figures-deps: python3 not found; install Python >= 3.11 (Debian: apt-get install python3 python3-venv)" >&2; exit 1; }
+	@python3 -c 'import sys; sys.exit(sys.version_info < (3, 11))' || { echo "figures-deps: python3 is $$(python3 -V 2>&1); plotting/requirements.txt needs Python >= 3.11" >&2; exit 1; }
+	@if ! python3 -c 'import venv, ensurepip' 2>/dev/null; then \
+		echo "installing python3-venv (apt)"; \
+		$(SUDO) apt-get update -qq && $(SUDO) env DEBIAN_FRONTEND=noninteractive apt-get install -y -qq python3-venv python3-pip \
+		|| { echo "figures-deps: python3 has no venv/ensurepip (pip) and python3-venv could not be installed" >&2; exit 1; }; \
+	fi
+	python3 -m venv $(VENV)
+	$(VENV)/bin/python -m pip install --quiet --disable-pip-version-check -r plotting/requirements.txt \
+		|| { echo "figures-deps: pip could not install plotting/requirements.txt (needs PyPI)" >&2; exit 1; }
+	@touch $@
+
+figures: figures-deps
+	$(VENV)/bin/python plotting/make_figures.py --out $(FIG_OUT) $(DB)
 
 clean-results:
 	rm -rf results/*
