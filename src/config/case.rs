@@ -95,7 +95,8 @@ pub struct Fluid {
     /// Giesekus mobility α ∈ [0, 1); default 0.
     #[serde(default)]
     pub alpha: f64,
-    /// Viscosity ratio β = η_s/(η_s + η_p) ∈ [0, 1).
+    /// Viscosity ratio β = η_s/(η_s + η_p) ∈ [0, 1); default 0 (UCM); ignored for a Newtonian fluid.
+    #[serde(default)]
     pub beta: f64,
 }
 

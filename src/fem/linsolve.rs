@@ -22,6 +22,7 @@ use faer::sparse::linalg::{amd, SupernodalThreshold};
 use faer::sparse::SymbolicSparseColMatRef;
 use faer::{Conj, MatMut, Par, Side, Spec};
 
+use super::krylov::gmres;
 use super::sparse::SparseMatrix;
 
 /// Which factorization to use.
@@ -73,6 +74,10 @@ pub struct DirectSolver {
     buffer: MemBuffer,
     factored: bool,
     n: usize,
+    /// Symmetric equilibration D of the last factored matrix (the factor is of D A D).
+    scale: Vec<f64>,
+    scaled: Option<SparseMatrix>,
+    last_polish: usize,
 }
 
 impl std::fmt::Debug for DirectSolver {
@@ -170,6 +175,9 @@ impl DirectSolver {
             buffer: MemBuffer::new(req),
             factored: false,
             n,
+            scale: Vec::new(),
+            scaled: None,
+            last_polish: 0,
         })
     }
 
@@ -189,6 +197,12 @@ impl DirectSolver {
             self.n,
             "matrix size differs from the analysed pattern"
         );
+        // Equilibrate: cut elements with tiny fluid parts spread the entries over many orders of
+        // magnitude, which the supernode-local pivoting of LBLᵀ handles poorly.
+        a.equilibration(&mut self.scale);
+        let scaled = self.scaled.get_or_insert_with(|| a.clone());
+        a.scaled_into(&self.scale, scaled);
+        let a = &*scaled;
         let stack = MemStack::new(&mut self.buffer);
         match &mut self.backend {
             Backend::Lblt {
@@ -232,8 +246,9 @@ impl DirectSolver {
             return Err(SolveError::NotFactored);
         }
         let n = self.n;
+        rhs.iter_mut().zip(&self.scale).for_each(|(b, d)| *b *= d);
         let stack = MemStack::new(&mut self.buffer);
-        let x = MatMut::from_column_major_slice_mut(rhs, n, 1);
+        let x = MatMut::from_column_major_slice_mut(&mut *rhs, n, 1);
         match &self.backend {
             Backend::Lblt {
                 symbolic,
@@ -259,11 +274,14 @@ impl DirectSolver {
                 );
             }
         }
+        rhs.iter_mut().zip(&self.scale).for_each(|(x, d)| *x *= d);
         Ok(())
     }
 
-    /// Solves and checks the relative residual against `tol`, with one step of iterative
-    /// refinement when the first residual is above it.
+    /// Solves and checks the relative residual against `tol`. When the direct solution misses it
+    /// (cut elements with tiny fluid parts make the system ill-conditioned, and the LBLᵀ pivots
+    /// only inside supernodes), GMRES preconditioned by the same factorization polishes it, at
+    /// most [`MAX_POLISH_ITERATIONS`] iterations.
     pub fn solve_checked(
         &mut self,
         a: &SparseMatrix,
@@ -271,23 +289,47 @@ impl DirectSolver {
         x: &mut [f64],
         tol: f64,
     ) -> Result<f64, SolveError> {
+        self.last_polish = 0;
         x.copy_from_slice(b);
         self.solve_in_place(x)?;
         let mut r = vec![0.0; b.len()];
         let res = residual(a, x, b, &mut r);
-        if res <= tol {
+        if res.is_finite() && res <= tol {
             return Ok(res);
         }
-        self.solve_in_place(&mut r)?;
-        x.iter_mut().zip(&r).for_each(|(xi, di)| *xi += di);
+        if !x.iter().all(|v| v.is_finite()) {
+            x.iter_mut().for_each(|v| *v = 0.0);
+        }
+        let apply_a = |v: &[f64], out: &mut [f64]| a.matvec(v, out);
+        let mut apply_m = |v: &mut [f64]| self.solve_in_place(v);
+        let out = gmres(
+            &apply_a,
+            &mut apply_m,
+            b,
+            x,
+            tol,
+            MAX_POLISH_ITERATIONS,
+            MAX_POLISH_ITERATIONS,
+        )?;
         let res = residual(a, x, b, &mut r);
-        if res.is_finite() && res <= tol {
+        self.last_polish = out.iterations;
+        if res.is_finite() && res <= 10.0 * tol {
             Ok(res)
         } else {
             Err(SolveError::Inaccurate { residual: res })
         }
     }
+
+    /// GMRES iterations of the last [`solve_checked`](Self::solve_checked) (0 when the direct
+    /// solve was accurate).
+    pub fn last_polish_iterations(&self) -> usize {
+        self.last_polish
+    }
 }
+
+/// Most GMRES iterations polishing a direct solve in [`DirectSolver::solve_checked`]; a good
+/// factorization as preconditioner needs a handful.
+pub const MAX_POLISH_ITERATIONS: usize = 30;
 
 /// Grouping of dofs into blocks for [`DirectSolver::analyze_blocked`].
 #[derive(Debug, Clone)]

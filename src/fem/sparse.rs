@@ -186,6 +186,35 @@ impl SparseMatrix {
         }
     }
 
+    /// Symmetric equilibration factors d_i = 1/√(max_j max(|a_ij|, |a_ji|)) (1 for an empty row),
+    /// so that D A D has entries of at most 1 in every row and column.
+    pub fn equilibration(&self, d: &mut Vec<f64>) {
+        d.clear();
+        d.resize(self.n, 0.0);
+        for j in 0..self.n {
+            for p in self.col_ptr[j]..self.col_ptr[j + 1] {
+                let v = self.values[p].abs();
+                let i = self.row_idx[p];
+                d[i] = d[i].max(v);
+                d[j] = d[j].max(v);
+            }
+        }
+        d.iter_mut()
+            .for_each(|m| *m = if *m > 0.0 { 1.0 / m.sqrt() } else { 1.0 });
+    }
+
+    /// Writes D A D into `out` (same pattern; `out` is resized to match).
+    pub fn scaled_into(&self, d: &[f64], out: &mut SparseMatrix) {
+        if out.row_idx.len() != self.row_idx.len() || out.n != self.n {
+            *out = self.clone();
+        }
+        for j in 0..self.n {
+            for p in self.col_ptr[j]..self.col_ptr[j + 1] {
+                out.values[p] = d[self.row_idx[p]] * self.values[p] * d[j];
+            }
+        }
+    }
+
     /// faer view of the matrix.
     pub fn as_faer(&self) -> SparseColMatRef<'_, usize, f64> {
         SparseColMatRef::new(self.symbolic(), &self.values)

@@ -26,9 +26,7 @@ pub const STEADY_HOLD_STEPS: u32 = 10;
 /// Neighbours closer than this many radii (surface gap) belong to one chain; thesis strings have gaps of
 /// 0.065a–0.15a (5.7.2), repelled particles end several radii apart.
 pub const CHAIN_GAP: f64 = 0.5;
-/// Penetration (in radii) of a wall or another particle taken as contact; the method has no contact force,
-/// so deeper overlap makes the rest of the trajectory meaningless. Initial touching (δ = 2) is allowed.
-pub const CONTACT_OVERLAP: f64 = 0.01;
+pub use crate::particles::CONTACT_OVERLAP;
 /// Approach (in radii) of the end particles needed before a recovering Δx counts as `repel`, so that noise
 /// at the start is not a reversal.
 pub const MIN_APPROACH: f64 = 0.1;

@@ -76,6 +76,11 @@ pub fn correct(
     }
 }
 
+/// Penetration (in radii) of a wall or another particle taken as contact; the method has no contact
+/// force, so deeper overlap makes the rest of the trajectory meaningless. Initial touching (δ = 2)
+/// is allowed. Used by the solvers to stop and by the outcome rules to classify.
+pub const CONTACT_OVERLAP: f64 = 0.01;
+
 /// A contact that stops a case.
 #[derive(Debug, Clone, Copy, PartialEq)]
 pub enum Contact {

@@ -3,7 +3,9 @@
 //! of every element (thesis §2.3.2, §5.3.2), using the `xfem` geometry.
 
 use crate::mesh::Mesh;
-use crate::solver::rigid::{BoundaryPoint, CutQuadrature as CutData, ElementCut, Particle, ParticleCut};
+use crate::solver::rigid::{
+    BoundaryPoint, CutQuadrature as CutData, ElementCut, Particle, ParticleCut,
+};
 use crate::xfem::{
     CellLocation, Circle, CircleUnion, CutOptions, CutQuadrature, InterfaceOptions, InterfacePoint,
     InterfaceQuadrature, Q2Element, XfemError,
@@ -31,7 +33,12 @@ pub fn level_set(particles: &[Particle], period_x: Option<f64>) -> Result<Circle
 
 /// Classifies every element of `mesh` against the particles and builds the fluid-part and
 /// boundary quadrature of the cut ones.
-pub fn compute_cuts(mesh: &Mesh, particles: &[Particle], period_x: Option<f64>, opts: CutOptions) -> Result<Vec<ElementCut>, CutError> {
+pub fn compute_cuts(
+    mesh: &Mesh,
+    particles: &[Particle],
+    period_x: Option<f64>,
+    opts: CutOptions,
+) -> Result<Vec<ElementCut>, CutError> {
     if particles.is_empty() {
         return Ok(vec![ElementCut::Fluid; mesh.n_elements()]);
     }
@@ -50,7 +57,13 @@ pub fn compute_cuts(mesh: &Mesh, particles: &[Particle], period_x: Option<f64>, 
             CellLocation::Cut(cell) => {
                 pts.clear();
                 iq.points_into(&map, &ls, &mut pts)?;
-                let vol = cell.rule.points.iter().copied().zip(cell.rule.weights.iter().copied()).collect();
+                let vol = cell
+                    .rule
+                    .points
+                    .iter()
+                    .copied()
+                    .zip(cell.rule.weights.iter().copied())
+                    .collect();
                 ElementCut::Cut(CutData {
                     vol,
                     particles: group_by_image(&pts),
@@ -75,7 +88,9 @@ fn group_by_image(pts: &[InterfacePoint]) -> Vec<ParticleCut> {
             n: p.normal,
         };
         match groups.iter_mut().find(|g| {
-            g.particle == p.particle && (g.center[0] - center[0]).abs() < SAME_IMAGE && (g.center[1] - center[1]).abs() < SAME_IMAGE
+            g.particle == p.particle
+                && (g.center[0] - center[0]).abs() < SAME_IMAGE
+                && (g.center[1] - center[1]).abs() < SAME_IMAGE
         }) {
             Some(g) => g.points.push(bp),
             None => groups.push(ParticleCut {

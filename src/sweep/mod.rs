@@ -9,6 +9,7 @@ pub mod engine;
 pub mod expand;
 pub mod progress;
 pub mod runner;
+pub mod solver_runner;
 
 pub use engine::{run_sweep, SweepOptions, SweepSummary};
 pub use expand::{case_id, expand, PlannedCase};

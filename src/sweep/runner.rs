@@ -67,9 +67,9 @@ impl CaseRunner for UnbuiltSolver {
     }
 }
 
-/// The runner the CLI uses. The solver team replaces the body with its adapter.
+/// The runner the CLI uses: the solver-backed one.
 pub fn default_runner() -> Box<dyn CaseRunner> {
-    Box::new(UnbuiltSolver)
+    Box::new(super::solver_runner::SolverRunner)
 }
 
 /// What a [`FakeRunner`] does with a case.
