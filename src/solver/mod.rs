@@ -1,6 +1,10 @@
 //! Weak forms and solvers.
 
+pub mod constitutive;
+pub mod constitutive_projection;
+pub mod constitutive_stress;
 pub mod norms;
 pub mod polymer_terms;
 pub mod rigid;
 pub mod stokes;
+pub mod viscoelastic;
