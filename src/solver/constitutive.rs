@@ -149,6 +149,28 @@ pub fn length_along(jac: &[[f64; 2]; 2], det: f64, w: [f64; 2]) -> f64 {
     2.0 * speed / r[0].abs().max(r[1].abs())
 }
 
+/// Characteristic velocity of the SUPG parameter ("Note on the SUPG parameter", §2.3.2).
+#[derive(Debug, Clone, Copy, PartialEq, Default)]
+pub enum SupgVelocity {
+    /// Case 1 (Eqs. 2.37, 3.22–3.24): `U_c = ‖w‖` at each quadrature point with the Courant
+    /// switch, `τ = min(h/(2‖w‖), Δt/2)` — the thesis' choice for particle flows.
+    #[default]
+    Local,
+    /// Case 3 (Eq. 2.42): a global velocity scale, `τ = h/(2 U_glob)` (β̄ = 1), independent of Δt.
+    Global(f64),
+}
+
+impl SupgVelocity {
+    /// τ at a point with convective speed `speed`, element length `h` along the flow, step `dt`.
+    #[inline]
+    pub fn tau(self, speed: f64, h: f64, dt: f64) -> f64 {
+        match self {
+            SupgVelocity::Local => supg_tau(speed, h, dt),
+            SupgVelocity::Global(u) => h / (2.0 * u),
+        }
+    }
+}
+
 /// Nodal data of one element for the transport kernel.
 #[derive(Debug, Clone, Copy)]
 pub struct TransportElement<'a> {
@@ -168,10 +190,12 @@ pub struct TransportElement<'a> {
 /// `f[a] = Σ_q w_q (ψ_a + τ w·∇ψ_a)(history + g(G, s_arg))` of one element (or its fluid part),
 /// for the quadrature `points` (reference point, reference weight). `a0` is `3/(2Δt)` (BDF2) or
 /// `1/Δt` (Euler). Overwrites `k` and `f`.
+#[allow(clippy::too_many_arguments)]
 pub fn transport_element_kernel(
     el: &TransportElement<'_>,
     points: &[([f64; 2], f64)],
     model: &Giesekus,
+    supg: SupgVelocity,
     dt: f64,
     a0: f64,
     k: &mut [[f64; 4]; 4],
@@ -202,7 +226,7 @@ pub fn transport_element_kernel(
         let l = VelocityGradient::new(g[0], g[1], g[2], g[3]);
         let source = hist + log_conformation_rhs(model, l, s_arg);
         let speed = (w[0] * w[0] + w[1] * w[1]).sqrt();
-        let tau = supg_tau(speed, length_along(&jac, det, w), dt);
+        let tau = supg.tau(speed, length_along(&jac, det, w), dt);
         let wq = wref * det;
         let mut conv = [0.0; 4];
         for a in 0..4 {
@@ -229,6 +253,8 @@ pub struct LogConformationTransport {
     solver: Option<DirectSolver>,
     rule: Vec<([f64; 2], f64)>,
     cuts: Vec<ElementCut>,
+    /// Characteristic velocity of the SUPG parameter (default: Case 1, the thesis' choice).
+    pub supg: SupgVelocity,
     /// Timings of the last step.
     pub timings: TransportTimings,
 }
@@ -261,6 +287,7 @@ impl LogConformationTransport {
             solver: None,
             rule: rule.points.into_iter().zip(rule.weights).collect(),
             cuts: vec![ElementCut::Fluid; mesh.n_elements()],
+            supg: SupgVelocity::Local,
             timings: TransportTimings::default(),
         }
     }
@@ -407,7 +434,7 @@ impl LogConformationTransport {
                     }
                 }
             }
-            transport_element_kernel(&el, points, model, dt, a0, &mut k, &mut f);
+            transport_element_kernel(&el, points, model, self.supg, dt, a0, &mut k, &mut f);
             for a in 0..4 {
                 kflat[4 * a..4 * a + 4].copy_from_slice(&k[a]);
             }

@@ -2,6 +2,7 @@
 //! returns its measured numbers and a verdict against named thresholds.
 
 pub mod stokes;
+pub mod viscoelastic;
 
 /// One row of a convergence table.
 #[derive(Debug, Clone)]
