@@ -1,9 +1,9 @@
 //! The polymer stress handed to the flow solve, from the projected conformation `cⁿ` (Eq. 5.28)
 //! in the linearized form `τ = A:L(u) + B·u + b` of [`PolymerStress`]:
 //!
-//! - [`CouplingStress::Explicit`]: `τ = τ(cⁿ) = G(cⁿ − I)` (Eq. 2.45 with the stress of the last
+//! - [`Coupling::Explicit`]: `τ = τ(cⁿ) = G(cⁿ − I)` (Eq. 2.45 with the stress of the last
 //!   step), only `b`: the flow matrix stays symmetric (LBLᵀ).
-//! - [`CouplingStress::SemiImplicit`]: the D'Avino–Hulsen stress of Eq. 5.26/5.51,
+//! - [`Coupling::SemiImplicit`]: the D'Avino–Hulsen stress of Eq. 5.26/5.51,
 //!   `τ = GΔt(−(u − u_m)·∇cⁿ + L·cⁿ + cⁿ·Lᵀ) + G h(cⁿ, Δt) − G I`: `A` and `b` from
 //!   [`SemiImplicitStress`], `B_ijk = −GΔt ∂_k cⁿ_ij`, and `+GΔt u_m·∇cⁿ` in `b` (LU).
 //!

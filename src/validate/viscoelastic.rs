@@ -477,3 +477,82 @@ pub fn channel_timings(
     t.transport.solve = med(&|t| t.transport.solve);
     Ok((t, flow.sizes()))
 }
+
+/// Result of [`poiseuille_steady`].
+#[derive(Debug, Clone, Copy)]
+pub struct PoiseuilleResult {
+    /// Steps to the steady state.
+    pub steps: usize,
+    /// Whether the steady criterion was met.
+    pub steady: bool,
+    /// max over nodes |u_h − u_exact| / u_max.
+    pub u_err: f64,
+    /// Relative error of the domain-mean N1.
+    pub n1_err: f64,
+    /// Relative error of the domain-mean |τ_p,xy|·sign(y) (τ_p,xy = −η_p f y/η0).
+    pub tau_err: f64,
+}
+
+/// Oldroyd-B / UCM flow driven by a body force f = 8η0 (u_max = 1, γ̇_wall = 4) between fixed walls
+/// y = ±1/2, periodic in x: a non-homogeneous flow (the stress gradient loads the momentum
+/// balance) with the steady state u = 4(1/4 − y²), γ̇ = −8y, τ_p,xy = η_p γ̇, N1 = 2λη_p γ̇²,
+/// mean N1 = 2λη_p·64/12. `wi` = λ γ̇_wall.
+///
+/// # Errors
+/// As [`ViscoelasticFlow::step`].
+pub fn poiseuille_steady(
+    wi: f64,
+    beta: f64,
+    ny: usize,
+    coupling: Coupling,
+    dt_per_lambda: f64,
+) -> Result<PoiseuilleResult, ViscoelasticError> {
+    let lambda = wi / 4.0;
+    let mesh = Mesh::rectangle(
+        Axis::uniform(0.0, 1.0, 2),
+        Axis::uniform(-0.5, 0.5, ny),
+        true,
+    );
+    let mut p = ViscoelasticParams::new(
+        beta,
+        1.0 - beta,
+        lambda,
+        0.0,
+        dt_per_lambda * lambda,
+        400.0 * lambda,
+    );
+    p.coupling = coupling;
+    let mut flow = ViscoelasticFlow::new(mesh, p)?;
+    flow.set_velocity(Side::Bottom, |_| [0.0, 0.0]);
+    flow.set_velocity(Side::Top, |_| [0.0, 0.0]);
+    flow.pin_pressure();
+    let force = |_: [f64; 2]| [8.0, 0.0];
+    let summary = flow.run(&force, true, |_, _| {})?;
+    let u_err = flow
+        .mesh()
+        .nodes
+        .iter()
+        .zip(flow.velocity())
+        .map(|(x, u)| (u[0] - 4.0 * (0.25 - x[1] * x[1])).abs().max(u[1].abs()))
+        .fold(0.0, f64::max);
+    let tau = flow.mean_polymer_stress();
+    let eta_p = 1.0 - beta;
+    let n1_exact = 2.0 * lambda * eta_p * 64.0 / 12.0;
+    // signed mean of τ_xy vanishes; compare the mean of τ_xy·sign(y) instead: η_p·8·(1/4)
+    let mesh = flow.mesh();
+    let cuts = vec![crate::solver::rigid::ElementCut::Fluid; mesh.n_elements()];
+    let c = flow.conformation();
+    let g = flow.fluid().polymer().modulus();
+    let txy = crate::solver::constitutive_projection::fluid_mean(mesh, &cuts, |e, xi| {
+        let y = q2_map(&mesh.element_coords[e], xi).0[1];
+        [g * sym_at(mesh, c, e, xi).xy * y.signum()]
+    })[0];
+    let txy_exact = -eta_p * 8.0 * 0.25;
+    Ok(PoiseuilleResult {
+        steps: summary.steps,
+        steady: summary.steady,
+        u_err,
+        n1_err: ((tau.xx - tau.yy) - n1_exact).abs() / n1_exact,
+        tau_err: (txy - txy_exact).abs() / txy_exact.abs(),
+    })
+}
