@@ -2,7 +2,11 @@
 
 pub mod cutcells;
 pub mod motion;
+pub mod constitutive;
+pub mod constitutive_projection;
+pub mod constitutive_stress;
 pub mod norms;
 pub mod polymer_terms;
 pub mod rigid;
 pub mod stokes;
+pub mod viscoelastic;

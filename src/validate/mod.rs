@@ -3,6 +3,7 @@
 
 pub mod stokes;
 pub mod xstokes;
+pub mod viscoelastic;
 
 /// One row of a convergence table.
 #[derive(Debug, Clone)]

@@ -1,0 +1,577 @@
+//! Transport of the log-conformation `s = log c` (3 components s_xx, s_xy, s_yy on Q1) with SUPG
+//! and the BDF2 (Gear) scheme of thesis Eq. 5.29 (Eq. 5.53 for the Euler first step):
+//!
+//! ```text
+//!   (d + τ w·∇d, (3/2 s^{n+1} − 2sⁿ + ½ s^{n−1})/Δt + w·∇s^{n+1} − g(G^{n+1}, ŝ)) = 0,
+//!   ŝ = 2sⁿ − s^{n−1},    w = u^{n+1} − u_m^{n+1}                                   (5.29)
+//!   (d + τ w·∇d, (s^{n+1} − sⁿ)/Δt + w·∇s^{n+1} − g(G^{n+1}, sⁿ)) = 0            (5.53)
+//! ```
+//!
+//! with g the right-hand side of the log-conformation equation (Eqs. 2.7, 5.7;
+//! [`log_conformation_rhs`]) evaluated explicitly at the quadrature points, G the velocity
+//! gradient (Q1, `[G_xx, G_xy, G_yx, G_yy]`, `G_ij ≈ ∂u_i/∂x_j`) and the SUPG parameter of Eqs.
+//! 3.22–3.24 (Case 1 of the "Note on the SUPG parameter", Eqs. 2.37–2.40):
+//! `τ = β̄ h/(2‖w‖)` with `β̄ = min(1, C)`, `C = ‖w‖Δt/h`, i.e. `τ = min(h/(2‖w‖), Δt/2)`, where `h`
+//! is the element length in the direction of `w` at the quadrature point.
+//!
+//! The left-hand side is the same scalar matrix for the three components: it is assembled once per
+//! step into a fixed Q1 pattern (all elements, so that a moving particle never changes it), factored
+//! once by LU (symbolic analysis reused across steps) and solved for three right-hand sides.
+//! Only the fluid part of cut elements is integrated (the per-element [`ElementCut`] override, as
+//! in the flow solver); vertices that touch no fluid become identity rows with `s = 0` (`c = I`).
+//! There is no inflow boundary: the solver is meant for the periodic channel and closed domains
+//! whose walls have `u·n = 0` (SUPG needs no boundary term there).
+//!
+//! The L² projection of `c = exp(s)` (Eq. 5.28) and the Q1 evaluation helpers live in
+//! [`constitutive_projection`](super::constitutive_projection); the polymer stress handed to the
+//! flow solver in [`constitutive_stress`](super::constitutive_stress).
+
+use std::time::Instant;
+
+use crate::fem::element::{physical_gradients, q1, q2, q2_map};
+use crate::fem::linsolve::{DirectSolver, SolveError, SolverKind};
+use crate::fem::quadrature::gauss_quad;
+use crate::fem::sparse::{PatternBuilder, SparseMatrix};
+use crate::mesh::Mesh;
+use crate::rheology::{log_conformation_rhs, Giesekus, Sym2, VelocityGradient};
+use crate::solver::rigid::ElementCut;
+
+/// Errors of the constitutive (stress) solve; each says what to change.
+#[derive(Debug, thiserror::Error)]
+pub enum ConstitutiveError {
+    /// A linear solve (transport matrix or mass matrix) failed.
+    #[error("{what} solve failed at step {step}: {source}")]
+    Solve {
+        /// Which system (`"log-conformation"` or `"Q1 projection"`).
+        what: &'static str,
+        /// Time step number (0 for set-up solves).
+        step: usize,
+        /// The solver error.
+        #[source]
+        source: SolveError,
+    },
+    /// The new log-conformation is not finite: the explicit g term or the convection blew up.
+    #[error(
+        "log-conformation not finite at vertex {vertex} after step {step}: reduce Δt \
+         (the explicit g(G, ŝ) limits it to a fraction of λ and of 1/‖∇u‖)"
+    )]
+    NonFinite {
+        /// Time step number.
+        step: usize,
+        /// First offending Q1 vertex.
+        vertex: usize,
+    },
+    /// Time step not positive or not finite.
+    #[error("time step Δt = {0} must be positive and finite")]
+    TimeStep(f64),
+}
+
+/// The time levels of `s` the BDF2 scheme needs, per Q1 vertex. Public so that a temporary ALE
+/// map can move both levels onto the current mesh before a step.
+#[derive(Debug, Clone, PartialEq)]
+pub struct LogConformationHistory {
+    /// `sⁿ`.
+    pub current: Vec<Sym2>,
+    /// `s^{n−1}` (`None` before the first step: that one is Euler).
+    pub previous: Option<Vec<Sym2>>,
+    steps: usize,
+}
+
+impl LogConformationHistory {
+    /// The stress-free state `s = 0` (`c = I`) on `n_vertices` vertices.
+    pub fn at_rest(n_vertices: usize) -> Self {
+        Self::from_field(vec![Sym2::ZERO; n_vertices])
+    }
+
+    /// Starts from a given field `s⁰` (no earlier level: the first step is Euler).
+    pub fn from_field(s0: Vec<Sym2>) -> Self {
+        Self {
+            current: s0,
+            previous: None,
+            steps: 0,
+        }
+    }
+
+    /// Number of steps taken.
+    pub fn steps(&self) -> usize {
+        self.steps
+    }
+}
+
+/// The flow seen by the transport step, all at `t^{n+1}`.
+#[derive(Debug, Clone, Copy)]
+pub struct TransportFlow<'a> {
+    /// Fluid velocity at the Q2 nodes.
+    pub velocity: &'a [[f64; 2]],
+    /// Mesh velocity `u_m` at the Q2 nodes (`None`: fixed mesh).
+    pub mesh_velocity: Option<&'a [[f64; 2]]>,
+    /// Velocity gradient G at the Q1 vertices, `[G_xx, G_xy, G_yx, G_yy]`, for g(G, ŝ).
+    pub gradient: &'a [[f64; 4]],
+}
+
+/// Wall-clock seconds of the last transport step.
+#[derive(Debug, Clone, Copy, Default)]
+pub struct TransportTimings {
+    /// Element loop and scatter (matrix and three right-hand sides).
+    pub assembly: f64,
+    /// Symbolic analysis (first step only).
+    pub symbolic: f64,
+    /// Numeric LU factorization.
+    pub factor: f64,
+    /// Three triangular solves.
+    pub solve: f64,
+}
+
+/// SUPG parameter of Eqs. 3.22–3.24: `τ = β̄ h/(2 U_c)`, `β̄ = min(1, C)`, `C = U_c Δt/h`,
+/// which is `min(h/(2 U_c), Δt/2)` (and `Δt/2` for `U_c = 0`, where the SUPG term vanishes anyway).
+#[inline]
+pub fn supg_tau(speed: f64, h: f64, dt: f64) -> f64 {
+    if speed > 0.0 && speed * dt >= h {
+        h / (2.0 * speed)
+    } else {
+        0.5 * dt
+    }
+}
+
+/// Element length in the direction of `w` at a point with Jacobian `jac` (`J_ij = ∂x_i/∂ξ_j`): the
+/// chord through the point of the (locally affine) element, `h = 2‖w‖/‖J⁻¹w‖_∞` (the reference
+/// square [−1, 1]² has the chord `2/‖r‖_∞` in the unit direction r); 0 for `w = 0`.
+#[inline]
+pub fn length_along(jac: &[[f64; 2]; 2], det: f64, w: [f64; 2]) -> f64 {
+    let speed = (w[0] * w[0] + w[1] * w[1]).sqrt();
+    if speed == 0.0 {
+        return 0.0;
+    }
+    let r = [
+        (jac[1][1] * w[0] - jac[0][1] * w[1]) / det,
+        (-jac[1][0] * w[0] + jac[0][0] * w[1]) / det,
+    ];
+    2.0 * speed / r[0].abs().max(r[1].abs())
+}
+
+/// Characteristic velocity of the SUPG parameter ("Note on the SUPG parameter", §2.3.2).
+#[derive(Debug, Clone, Copy, PartialEq, Default)]
+pub enum SupgVelocity {
+    /// Case 1 (Eqs. 2.37, 3.22–3.24): `U_c = ‖w‖` at each quadrature point with the Courant
+    /// switch, `τ = min(h/(2‖w‖), Δt/2)` — the thesis' choice for particle flows.
+    #[default]
+    Local,
+    /// Case 3 (Eq. 2.42): a global velocity scale, `τ = h/(2 U_glob)` (β̄ = 1), independent of Δt.
+    Global(f64),
+}
+
+impl SupgVelocity {
+    /// τ at a point with convective speed `speed`, element length `h` along the flow, step `dt`.
+    #[inline]
+    pub fn tau(self, speed: f64, h: f64, dt: f64) -> f64 {
+        match self {
+            SupgVelocity::Local => supg_tau(speed, h, dt),
+            SupgVelocity::Global(u) => h / (2.0 * u),
+        }
+    }
+}
+
+/// Nodal data of one element for the transport kernel.
+#[derive(Debug, Clone, Copy)]
+pub struct TransportElement<'a> {
+    /// Physical coordinates of the Q2 nodes.
+    pub xe: &'a [[f64; 2]; 9],
+    /// Convective velocity `w = u − u_m` at the Q2 nodes.
+    pub w: [[f64; 2]; 9],
+    /// G at the Q1 corners.
+    pub g: [[f64; 4]; 4],
+    /// History term at the corners: `(2sⁿ − ½s^{n−1})/Δt` (BDF2) or `sⁿ/Δt` (Euler).
+    pub history: [Sym2; 4],
+    /// Argument of g at the corners: `ŝ = 2sⁿ − s^{n−1}` (BDF2) or `sⁿ` (Euler).
+    pub s_arg: [Sym2; 4],
+}
+
+/// Local SUPG matrix `k[a][b] = Σ_q w_q (ψ_a + τ w·∇ψ_a)(a0 ψ_b + w·∇ψ_b)` and right-hand sides
+/// `f[a] = Σ_q w_q (ψ_a + τ w·∇ψ_a)(history + g(G, s_arg))` of one element (or its fluid part),
+/// for the quadrature `points` (reference point, reference weight). `a0` is `3/(2Δt)` (BDF2) or
+/// `1/Δt` (Euler). Overwrites `k` and `f`.
+#[allow(clippy::too_many_arguments)]
+pub fn transport_element_kernel(
+    el: &TransportElement<'_>,
+    points: &[([f64; 2], f64)],
+    model: &Giesekus,
+    supg: SupgVelocity,
+    dt: f64,
+    a0: f64,
+    k: &mut [[f64; 4]; 4],
+    f: &mut [Sym2; 4],
+) {
+    *k = [[0.0; 4]; 4];
+    *f = [Sym2::ZERO; 4];
+    let mut dpsi = [[0.0; 2]; 4];
+    for &(xi, wref) in points {
+        let (_, jac, det) = q2_map(el.xe, xi);
+        let (psi, dref) = q1(xi);
+        physical_gradients(&jac, det, &dref, &mut dpsi);
+        let n2 = q2(xi).0;
+        let mut w = [0.0; 2];
+        for a in 0..9 {
+            w[0] += n2[a] * el.w[a][0];
+            w[1] += n2[a] * el.w[a][1];
+        }
+        let mut g = [0.0; 4];
+        let (mut hist, mut s_arg) = (Sym2::ZERO, Sym2::ZERO);
+        for a in 0..4 {
+            for ij in 0..4 {
+                g[ij] += psi[a] * el.g[a][ij];
+            }
+            hist += psi[a] * el.history[a];
+            s_arg += psi[a] * el.s_arg[a];
+        }
+        let l = VelocityGradient::new(g[0], g[1], g[2], g[3]);
+        let source = hist + log_conformation_rhs(model, l, s_arg);
+        let speed = (w[0] * w[0] + w[1] * w[1]).sqrt();
+        let tau = supg.tau(speed, length_along(&jac, det, w), dt);
+        let wq = wref * det;
+        let mut conv = [0.0; 4];
+        for a in 0..4 {
+            conv[a] = w[0] * dpsi[a][0] + w[1] * dpsi[a][1];
+        }
+        for a in 0..4 {
+            let test = wq * (psi[a] + tau * conv[a]);
+            for b in 0..4 {
+                k[a][b] += test * (a0 * psi[b] + conv[b]);
+            }
+            f[a] += test * source;
+        }
+    }
+}
+
+/// The log-conformation transport solver on one mesh topology: fixed Q1 pattern, LU with the
+/// symbolic analysis done on the first step.
+pub struct LogConformationTransport {
+    n_vertices: usize,
+    n_elements: usize,
+    matrix: SparseMatrix,
+    rhs: [Vec<f64>; 3],
+    fixed: Vec<Option<f64>>,
+    solver: Option<DirectSolver>,
+    rule: Vec<([f64; 2], f64)>,
+    cuts: Vec<ElementCut>,
+    /// Characteristic velocity of the SUPG parameter (default: Case 1, the thesis' choice).
+    pub supg: SupgVelocity,
+    /// Timings of the last step.
+    pub timings: TransportTimings,
+}
+
+impl std::fmt::Debug for LogConformationTransport {
+    fn fmt(&self, f: &mut std::fmt::Formatter<'_>) -> std::fmt::Result {
+        f.debug_struct("LogConformationTransport")
+            .field("n_vertices", &self.n_vertices)
+            .field("nnz", &self.matrix.nnz())
+            .finish()
+    }
+}
+
+impl LogConformationTransport {
+    /// Builds the Q1 pattern of `mesh` (every element, so the pattern survives moving particles);
+    /// all elements fluid.
+    pub fn new(mesh: &Mesh) -> Self {
+        let nv = mesh.n_vertices();
+        let mut pb = PatternBuilder::new(nv);
+        for ev in &mesh.element_vertices {
+            pb.add_group(ev);
+        }
+        let rule = gauss_quad(3);
+        Self {
+            n_vertices: nv,
+            n_elements: mesh.n_elements(),
+            matrix: pb.build(),
+            rhs: [vec![0.0; nv], vec![0.0; nv], vec![0.0; nv]],
+            fixed: vec![None; nv],
+            solver: None,
+            rule: rule.points.into_iter().zip(rule.weights).collect(),
+            cuts: vec![ElementCut::Fluid; mesh.n_elements()],
+            supg: SupgVelocity::Local,
+            timings: TransportTimings::default(),
+        }
+    }
+
+    /// Sets the element classification (fluid / cut with its fluid-part quadrature / inside):
+    /// vertices touching no fluid become identity rows holding `s = 0`.
+    ///
+    /// # Panics
+    /// If `cuts.len()` differs from the number of elements.
+    pub fn set_cuts(&mut self, mesh: &Mesh, cuts: Vec<ElementCut>) {
+        assert_eq!(cuts.len(), self.n_elements, "one ElementCut per element");
+        self.fixed = inactive_vertices(mesh, &cuts);
+        self.cuts = cuts;
+    }
+
+    /// Number of unknowns per component and stored matrix entries.
+    pub fn size(&self) -> (usize, usize) {
+        (self.n_vertices, self.matrix.nnz())
+    }
+
+    /// One step `sⁿ → s^{n+1}` (Euler when `history.previous` is `None`, BDF2 otherwise) in the
+    /// flow at `t^{n+1}`; shifts the history.
+    ///
+    /// # Errors
+    /// [`ConstitutiveError::TimeStep`] for a bad `dt`; [`ConstitutiveError::Solve`] if the LU
+    /// fails; [`ConstitutiveError::NonFinite`] if the result is not finite.
+    ///
+    /// # Panics
+    /// If `mesh`, `history` or `flow` do not match the topology given at construction.
+    pub fn step(
+        &mut self,
+        mesh: &Mesh,
+        model: &Giesekus,
+        dt: f64,
+        flow: &TransportFlow<'_>,
+        history: &mut LogConformationHistory,
+    ) -> Result<(), ConstitutiveError> {
+        if !(dt > 0.0 && dt.is_finite()) {
+            return Err(ConstitutiveError::TimeStep(dt));
+        }
+        assert_eq!(mesh.n_vertices(), self.n_vertices, "mesh topology changed");
+        assert_eq!(mesh.n_elements(), self.n_elements, "mesh topology changed");
+        assert_eq!(history.current.len(), self.n_vertices, "history size");
+        assert_eq!(flow.velocity.len(), mesh.n_nodes(), "velocity size");
+        assert_eq!(flow.gradient.len(), self.n_vertices, "gradient size");
+        let step = history.steps + 1;
+        let t0 = Instant::now();
+        self.assemble(mesh, model, dt, flow, history);
+        let t1 = Instant::now();
+        let mut symbolic = 0.0;
+        if self.solver.is_none() {
+            let solver = DirectSolver::analyze(&self.matrix, SolverKind::Lu).map_err(|source| {
+                ConstitutiveError::Solve {
+                    what: "log-conformation",
+                    step,
+                    source,
+                }
+            })?;
+            self.solver = Some(solver);
+            symbolic = t1.elapsed().as_secs_f64();
+        }
+        let t2 = Instant::now();
+        let solver = self.solver.as_mut().expect("analysed above");
+        let wrap = |source| ConstitutiveError::Solve {
+            what: "log-conformation",
+            step,
+            source,
+        };
+        solver.factor(&self.matrix).map_err(wrap)?;
+        let t3 = Instant::now();
+        for r in &mut self.rhs {
+            solver.solve_in_place(r).map_err(wrap)?;
+        }
+        let t4 = Instant::now();
+        // shift: s^{n−1} ← sⁿ, sⁿ ← new (reusing the old s^{n−1} buffer)
+        let mut next = history
+            .previous
+            .take()
+            .unwrap_or_else(|| vec![Sym2::ZERO; self.n_vertices]);
+        for (v, s) in next.iter_mut().enumerate() {
+            *s = Sym2::new(self.rhs[0][v], self.rhs[1][v], self.rhs[2][v]);
+            if !s.is_finite() {
+                return Err(ConstitutiveError::NonFinite { step, vertex: v });
+            }
+        }
+        history.previous = Some(std::mem::replace(&mut history.current, next));
+        history.steps = step;
+        self.timings = TransportTimings {
+            assembly: (t1 - t0).as_secs_f64(),
+            symbolic,
+            factor: (t3 - t2).as_secs_f64(),
+            solve: (t4 - t3).as_secs_f64(),
+        };
+        Ok(())
+    }
+
+    fn assemble(
+        &mut self,
+        mesh: &Mesh,
+        model: &Giesekus,
+        dt: f64,
+        flow: &TransportFlow<'_>,
+        history: &LogConformationHistory,
+    ) {
+        self.matrix.zero();
+        self.rhs.iter_mut().for_each(|r| r.fill(0.0));
+        let bdf2 = history.previous.as_ref();
+        let a0 = if bdf2.is_some() { 1.5 / dt } else { 1.0 / dt };
+        let (mut k, mut f) = ([[0.0; 4]; 4], [Sym2::ZERO; 4]);
+        let mut kflat = [0.0; 16];
+        let mut fc = [0.0; 4];
+        for e in 0..self.n_elements {
+            let points: &[([f64; 2], f64)] = match &self.cuts[e] {
+                ElementCut::Inside => continue,
+                ElementCut::Fluid => &self.rule,
+                ElementCut::Cut(c) => &c.vol,
+            };
+            let nodes = &mesh.elements[e];
+            let verts = &mesh.element_vertices[e];
+            let mut el = TransportElement {
+                xe: &mesh.element_coords[e],
+                w: [[0.0; 2]; 9],
+                g: [[0.0; 4]; 4],
+                history: [Sym2::ZERO; 4],
+                s_arg: [Sym2::ZERO; 4],
+            };
+            for a in 0..9 {
+                let u = flow.velocity[nodes[a]];
+                let um = flow.mesh_velocity.map_or([0.0; 2], |m| m[nodes[a]]);
+                el.w[a] = [u[0] - um[0], u[1] - um[1]];
+            }
+            for a in 0..4 {
+                let v = verts[a];
+                el.g[a] = flow.gradient[v];
+                let sn = history.current[v];
+                match bdf2 {
+                    Some(prev) => {
+                        el.history[a] = (1.0 / dt) * (2.0 * sn - 0.5 * prev[v]);
+                        el.s_arg[a] = 2.0 * sn - prev[v];
+                    }
+                    None => {
+                        el.history[a] = (1.0 / dt) * sn;
+                        el.s_arg[a] = sn;
+                    }
+                }
+            }
+            transport_element_kernel(&el, points, model, self.supg, dt, a0, &mut k, &mut f);
+            for a in 0..4 {
+                kflat[4 * a..4 * a + 4].copy_from_slice(&k[a]);
+            }
+            // the matrix once (with the xx load), then the other two loads
+            for a in 0..4 {
+                fc[a] = f[a].xx;
+            }
+            self.matrix
+                .scatter(verts, &kflat, &fc, &mut self.rhs[0], &self.fixed);
+            for a in 0..4 {
+                if self.fixed[verts[a]].is_none() {
+                    self.rhs[1][verts[a]] += f[a].xy;
+                    self.rhs[2][verts[a]] += f[a].yy;
+                }
+            }
+        }
+        self.matrix.apply_constraints(&mut self.rhs[0], &self.fixed);
+        for (v, fx) in self.fixed.iter().enumerate() {
+            if let Some(val) = fx {
+                self.rhs[1][v] = *val;
+                self.rhs[2][v] = *val;
+            }
+        }
+    }
+}
+
+/// `Some(0.0)` for the Q1 vertices that touch no fluid element, `None` elsewhere.
+pub fn inactive_vertices(mesh: &Mesh, cuts: &[ElementCut]) -> Vec<Option<f64>> {
+    let mut active = vec![false; mesh.n_vertices()];
+    for (e, cut) in cuts.iter().enumerate() {
+        if !matches!(cut, ElementCut::Inside) {
+            mesh.element_vertices[e]
+                .iter()
+                .for_each(|&v| active[v] = true);
+        }
+    }
+    active
+        .into_iter()
+        .map(|a| if a { None } else { Some(0.0) })
+        .collect()
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+    use crate::mesh::Axis;
+
+    /// Closed-form values through a few flops: round-off only.
+    const ROUND_OFF: f64 = 1e-13;
+
+    #[test]
+    fn supg_tau_follows_the_courant_switch() {
+        // C = 2 ≥ 1: τ = h/(2U); C = 0.5 < 1: τ = Δt/2; U = 0: Δt/2
+        assert!((supg_tau(2.0, 0.1, 0.1) - 0.025).abs() < ROUND_OFF);
+        assert!((supg_tau(0.5, 0.1, 0.1) - 0.05).abs() < ROUND_OFF);
+        assert_eq!(supg_tau(0.0, 0.0, 0.1), 0.05);
+        // continuous at C = 1
+        assert!((supg_tau(1.0, 0.1, 0.1) - 0.05).abs() < ROUND_OFF);
+    }
+
+    #[test]
+    fn element_length_along_the_flow_direction() {
+        // 0.4 × 0.1 rectangle: J = diag(0.2, 0.05)
+        let jac = [[0.2, 0.0], [0.0, 0.05]];
+        let det = 0.01;
+        assert!((length_along(&jac, det, [3.0, 0.0]) - 0.4).abs() < ROUND_OFF);
+        assert!((length_along(&jac, det, [0.0, -2.0]) - 0.1).abs() < ROUND_OFF);
+        // diagonal direction (1,1)/√2: the line through the centre leaves through y = ±0.05,
+        // length 0.1·√2
+        let h = length_along(&jac, det, [1.0, 1.0]);
+        assert!((h - 0.1 * 2f64.sqrt()).abs() < ROUND_OFF, "{h}");
+        assert_eq!(length_along(&jac, det, [0.0, 0.0]), 0.0);
+    }
+
+    #[test]
+    fn uniform_field_in_uniform_flow_follows_the_point_scheme() {
+        // s uniform, w uniform (SUPG active), G = 0: every vertex must take exactly the 0-D step
+        let mesh = Mesh::rectangle(Axis::uniform(0.0, 2.0, 6), Axis::uniform(0.0, 1.0, 3), true);
+        let model = Giesekus::new(0.7, 1.0, 0.3).unwrap();
+        let dt = 0.05;
+        let s0 = Sym2::new(0.4, -0.2, 0.1);
+        let u = vec![[1.3, 0.0]; mesh.n_nodes()];
+        let g = vec![[0.0; 4]; mesh.n_vertices()];
+        let flow = TransportFlow {
+            velocity: &u,
+            mesh_velocity: None,
+            gradient: &g,
+        };
+        let mut tr = LogConformationTransport::new(&mesh);
+        let mut hist = LogConformationHistory::from_field(vec![s0; mesh.n_vertices()]);
+        let mut point = crate::rheology::HomogeneousLogConformation::new(
+            model,
+            VelocityGradient::default(),
+            s0,
+            dt,
+        )
+        .unwrap();
+        for _ in 0..5 {
+            tr.step(&mesh, &model, dt, &flow, &mut hist).unwrap();
+            let want = point.step();
+            for s in &hist.current {
+                assert!((*s - want).norm() < ROUND_OFF, "{s:?} vs {want:?}");
+            }
+        }
+        assert_eq!(hist.steps(), 5);
+    }
+
+    #[test]
+    fn inactive_vertices_are_identity_rows_at_rest() {
+        let mesh = Mesh::rectangle(Axis::uniform(0.0, 3.0, 3), Axis::uniform(0.0, 1.0, 1), true);
+        let mut cuts = vec![ElementCut::Fluid; 3];
+        cuts[1] = ElementCut::Inside;
+        // element 1 has vertices 1, 2 (bottom) and 4, 5 (top); all are shared with fluid elements
+        assert!(inactive_vertices(&mesh, &cuts).iter().all(|f| f.is_none()));
+        let mut cuts = vec![ElementCut::Inside; 3];
+        cuts[0] = ElementCut::Fluid;
+        let fixed = inactive_vertices(&mesh, &cuts);
+        assert_eq!(fixed.iter().filter(|f| f.is_some()).count(), 2);
+        let model = Giesekus::oldroyd_b(1.0, 1.0).unwrap();
+        let u = vec![[0.5, 0.0]; mesh.n_nodes()];
+        let g = vec![[0.0, 1.0, 0.0, 0.0]; mesh.n_vertices()];
+        let mut tr = LogConformationTransport::new(&mesh);
+        tr.set_cuts(&mesh, cuts);
+        let mut hist = LogConformationHistory::at_rest(mesh.n_vertices());
+        let flow = TransportFlow {
+            velocity: &u,
+            mesh_velocity: None,
+            gradient: &g,
+        };
+        tr.step(&mesh, &model, 0.1, &flow, &mut hist).unwrap();
+        for (v, f) in fixed.iter().enumerate() {
+            if f.is_some() {
+                assert_eq!(hist.current[v], Sym2::ZERO);
+            } else {
+                // Euler step in shear from rest: s = Δt g(L, 0) = Δt (L + Lᵀ) → s_xy = 0.1
+                assert!((hist.current[v].xy - 0.1).abs() < ROUND_OFF);
+            }
+        }
+    }
+}

@@ -1,0 +1,481 @@
+//! Time stepper of a viscoelastic flow without particles (thesis §2.3.3, §3.3.5, §5.3.4 without
+//! steps 1–3 and 6 of the particle scheme). Per step:
+//!
+//! 1. `solve_flow`: u^{n+1}, p^{n+1} (and G^{n+1} when DEVSS-G is coupled) from the momentum
+//!    balance with the polymer stress of the projected conformation cⁿ (Eq. 5.28), either explicit
+//!    `τ(cⁿ)` (Eq. 2.45, symmetric LBLᵀ, the fast path) or semi-implicit (Eq. 5.26/5.51, LU);
+//!    with a decoupled DEVSS-G the lagged −θGⁿ is a load.
+//! 2. `project_gradient` (decoupled DEVSS-G only): G^{n+1} = Π L(u^{n+1}) (Q1 mass matrix).
+//! 3. `solve_stress`: s^{n+1} by SUPG/BDF2 (Eq. 5.29; Euler first step, Eq. 5.53).
+//! 4. `project_conformation`: c^{n+1} = Π exp(s^{n+1}) (Eq. 5.28).
+//! 5. steady test of §2.5.1: max nodal change of u and of s in this step below a tolerance.
+//!
+//! Initially the polymer stress is zero (`s = 0`); [`ViscoelasticFlow::start`] solves the flow at
+//! t = 0 with that stress (and G⁰ = Π L(u⁰)).
+
+use std::time::Instant;
+
+use crate::fem::linsolve::{SolveError, SolverKind};
+use crate::mesh::{Mesh, Side};
+use crate::rheology::{Fluid, RheologyError, Sym2};
+use crate::solver::constitutive::{
+    ConstitutiveError, LogConformationHistory, LogConformationTransport, TransportFlow,
+    TransportTimings,
+};
+use crate::solver::constitutive_projection::{fluid_mean, velocity_gradient_at, Q1Projection};
+use crate::solver::constitutive_stress::{Coupling, CouplingStress};
+use crate::solver::rigid::ElementCut;
+use crate::solver::stokes::{Stokes, StokesParams};
+
+/// Steady-state tolerance of thesis §2.5.1: nodal changes of u and s below 1e-6 per step.
+pub const STEADY_TOL: f64 = 1e-6;
+
+/// Parameters of a viscoelastic run (no dependency on the config module).
+#[derive(Debug, Clone, Copy, PartialEq)]
+pub struct ViscoelasticParams {
+    /// Solvent viscosity η_s (0 = UCM / Giesekus without solvent).
+    pub eta_s: f64,
+    /// Polymer viscosity η_p.
+    pub eta_p: f64,
+    /// Relaxation time λ.
+    pub lambda: f64,
+    /// Giesekus mobility α (0 = Oldroyd-B).
+    pub alpha: f64,
+    /// Time step Δt.
+    pub dt: f64,
+    /// End time.
+    pub t_end: f64,
+    /// Stress coupling in the flow solve.
+    pub coupling: Coupling,
+    /// DEVSS-G parameter θ (thesis: θ = η_p).
+    pub theta: f64,
+    /// DEVSS-G with G as flow unknowns (true) or decoupled: Gⁿ lagged in the momentum balance,
+    /// G^{n+1} by a Q1 projection (false, the fast path).
+    pub coupled_g: bool,
+    /// Steady-state tolerance on the nodal change per step.
+    pub steady_tol: f64,
+}
+
+impl ViscoelasticParams {
+    /// Explicit coupling, decoupled DEVSS-G with θ = η_p, steady tolerance [`STEADY_TOL`].
+    pub fn new(eta_s: f64, eta_p: f64, lambda: f64, alpha: f64, dt: f64, t_end: f64) -> Self {
+        Self {
+            eta_s,
+            eta_p,
+            lambda,
+            alpha,
+            dt,
+            t_end,
+            coupling: Coupling::Explicit,
+            theta: eta_p,
+            coupled_g: false,
+            steady_tol: STEADY_TOL,
+        }
+    }
+
+    /// The validated fluid.
+    ///
+    /// # Errors
+    /// As in [`ViscoelasticFlow::new`].
+    pub fn fluid(&self) -> Result<Fluid, ViscoelasticError> {
+        let fluid = Fluid::new(self.eta_s, self.eta_p, self.lambda, self.alpha)?;
+        if !(self.dt > 0.0 && self.dt.is_finite() && self.t_end >= 0.0 && self.t_end.is_finite()) {
+            return Err(ViscoelasticError::Time {
+                dt: self.dt,
+                t_end: self.t_end,
+            });
+        }
+        if !(self.theta >= 0.0 && self.theta.is_finite()) {
+            return Err(ViscoelasticError::Theta(self.theta));
+        }
+        if self.coupling == Coupling::Explicit && self.eta_s + self.theta == 0.0 {
+            return Err(ViscoelasticError::NoViscosityInFlowMatrix);
+        }
+        Ok(fluid)
+    }
+}
+
+/// Errors of the viscoelastic time stepper; each says what to change.
+#[derive(Debug, thiserror::Error)]
+pub enum ViscoelasticError {
+    /// Invalid fluid parameters.
+    #[error("fluid parameters: {0}")]
+    Fluid(#[from] RheologyError),
+    /// Bad time parameters.
+    #[error("time step Δt = {dt} must be positive and the end time {t_end} non-negative (finite)")]
+    Time {
+        /// Δt.
+        dt: f64,
+        /// End time.
+        t_end: f64,
+    },
+    /// Bad DEVSS-G parameter.
+    #[error("DEVSS-G parameter θ = {0} must be non-negative and finite")]
+    Theta(f64),
+    /// η_s = θ = 0 with the explicit coupling: the flow matrix has no viscous part.
+    #[error(
+        "η_s = 0 with explicit stress coupling and θ = 0 leaves the flow matrix singular: \
+         use DEVSS-G (θ = η_p) or the semi-implicit coupling"
+    )]
+    NoViscosityInFlowMatrix,
+    /// The flow solve failed.
+    #[error("flow solve failed at step {step}: {source}")]
+    Flow {
+        /// Time step number (0 = initial solve).
+        step: usize,
+        /// The solver error.
+        #[source]
+        source: SolveError,
+    },
+    /// The stress solve or a projection failed.
+    #[error(transparent)]
+    Stress(#[from] ConstitutiveError),
+}
+
+/// Wall-clock seconds of the phases of one step.
+#[derive(Debug, Clone, Copy, Default)]
+pub struct StepTimings {
+    /// Flow: assembly.
+    pub flow_assembly: f64,
+    /// Flow: symbolic analysis (first solve only).
+    pub flow_symbolic: f64,
+    /// Flow: numeric factorization.
+    pub flow_factor: f64,
+    /// Flow: solve and residual check.
+    pub flow_solve: f64,
+    /// Q1 projection of G (decoupled DEVSS-G).
+    pub gradient_projection: f64,
+    /// Log-conformation transport.
+    pub transport: TransportTimings,
+    /// Q1 projection of exp(s).
+    pub conformation_projection: f64,
+    /// Whole step.
+    pub total: f64,
+}
+
+/// What one step did.
+#[derive(Debug, Clone, Copy)]
+pub struct StepReport {
+    /// Step number (1 = first step).
+    pub step: usize,
+    /// Time after the step.
+    pub time: f64,
+    /// max over nodes and components of |u^{n+1} − uⁿ|.
+    pub du_max: f64,
+    /// max over vertices and components of |s^{n+1} − sⁿ|.
+    pub ds_max: f64,
+    /// Both below the steady tolerance.
+    pub steady: bool,
+    /// Timings.
+    pub timings: StepTimings,
+}
+
+/// How a run ended.
+#[derive(Debug, Clone, Copy)]
+pub struct RunSummary {
+    /// Steps taken.
+    pub steps: usize,
+    /// Final time.
+    pub time: f64,
+    /// Whether the steady criterion was met (the run stops there when asked to).
+    pub steady: bool,
+    /// The last step's report.
+    pub last: Option<StepReport>,
+}
+
+/// A viscoelastic flow on a fixed mesh, stepped in time.
+pub struct ViscoelasticFlow {
+    mesh: Mesh,
+    stokes: Stokes,
+    transport: LogConformationTransport,
+    projection: Q1Projection,
+    fluid: Fluid,
+    params: ViscoelasticParams,
+    history: LogConformationHistory,
+    conformation: Vec<Sym2>,
+    gradient: Vec<[f64; 4]>,
+    velocity: Vec<[f64; 2]>,
+    pressure: Vec<f64>,
+    time: f64,
+    started: bool,
+}
+
+impl ViscoelasticFlow {
+    /// Sets up the flow and stress solvers on `mesh` (LBLᵀ flow solver for the explicit coupling,
+    /// LU for the semi-implicit one).
+    ///
+    /// # Errors
+    /// [`ViscoelasticError::Fluid`] for invalid fluid parameters, [`ViscoelasticError::Time`] for
+    /// a bad Δt or end time, [`ViscoelasticError::Theta`] for a bad θ,
+    /// [`ViscoelasticError::NoViscosityInFlowMatrix`] for η_s = θ = 0 with explicit coupling.
+    pub fn new(mesh: Mesh, params: ViscoelasticParams) -> Result<Self, ViscoelasticError> {
+        let fluid = params.fluid()?;
+        let solver = match params.coupling {
+            Coupling::Explicit => SolverKind::Lblt,
+            Coupling::SemiImplicit => SolverKind::Lu,
+        };
+        let mut sp = StokesParams::new(params.eta_s, params.theta, solver);
+        sp.coupled_g = params.coupled_g;
+        let (nv, nn) = (mesh.n_vertices(), mesh.n_nodes());
+        Ok(Self {
+            stokes: Stokes::new(mesh.clone(), sp),
+            transport: LogConformationTransport::new(&mesh),
+            projection: Q1Projection::new(&mesh),
+            fluid,
+            params,
+            history: LogConformationHistory::at_rest(nv),
+            conformation: vec![Sym2::IDENTITY; nv],
+            gradient: vec![[0.0; 4]; nv],
+            velocity: vec![[0.0; 2]; nn],
+            pressure: vec![0.0; nv],
+            time: 0.0,
+            started: false,
+            mesh,
+        })
+    }
+
+    /// Prescribes the velocity on a side (walls), for all times.
+    pub fn set_velocity(&mut self, side: Side, f: impl Fn([f64; 2]) -> [f64; 2]) {
+        self.stokes.set_velocity(side, f);
+    }
+
+    /// Pins the pressure (enclosed flows).
+    pub fn pin_pressure(&mut self) {
+        self.stokes.pin_pressure();
+    }
+
+    /// Solves the flow at t = 0 with zero polymer stress (s = 0) and sets G⁰.
+    ///
+    /// # Errors
+    /// [`ViscoelasticError::Flow`] or [`ViscoelasticError::Stress`] if a solve fails.
+    pub fn start(&mut self, force: &dyn Fn([f64; 2]) -> [f64; 2]) -> Result<(), ViscoelasticError> {
+        let sol = self
+            .stokes
+            .solve(force)
+            .map_err(|source| ViscoelasticError::Flow { step: 0, source })?;
+        self.velocity = sol.u;
+        self.pressure = sol.p;
+        match sol.g {
+            Some(g) => self.gradient = g,
+            None => self.projection.project_velocity_gradient(
+                &self.mesh,
+                &self.velocity,
+                &mut self.gradient,
+            )?,
+        }
+        self.started = true;
+        Ok(())
+    }
+
+    /// One time step (calls [`start`](Self::start) first if needed).
+    ///
+    /// # Errors
+    /// [`ViscoelasticError::Flow`] or [`ViscoelasticError::Stress`] if a solve fails or the
+    /// log-conformation is not finite.
+    pub fn step(
+        &mut self,
+        force: &dyn Fn([f64; 2]) -> [f64; 2],
+    ) -> Result<StepReport, ViscoelasticError> {
+        if !self.started {
+            self.start(force)?;
+        }
+        let t_step = Instant::now();
+        let step = self.history.steps() + 1;
+        let dt = self.params.dt;
+        // 1. solve_flow with the stress of cⁿ
+        let stress = CouplingStress {
+            mesh: &self.mesh,
+            model: self.fluid.polymer(),
+            conformation: &self.conformation,
+            coupling: self.params.coupling,
+            dt,
+            mesh_velocity: None,
+            devss: (!self.params.coupled_g && self.params.theta > 0.0)
+                .then_some((self.params.theta, self.gradient.as_slice())),
+        };
+        let sol = self
+            .stokes
+            .solve_with(force, Some(&stress))
+            .map_err(|source| ViscoelasticError::Flow { step, source })?;
+        let ft = self.stokes.timings;
+        // 2. project_gradient
+        let t0 = Instant::now();
+        match sol.g {
+            Some(g) => self.gradient = g,
+            None => {
+                self.projection
+                    .project_velocity_gradient(&self.mesh, &sol.u, &mut self.gradient)?
+            }
+        }
+        let gradient_projection = t0.elapsed().as_secs_f64();
+        // 3. solve_stress
+        let flow = TransportFlow {
+            velocity: &sol.u,
+            mesh_velocity: None,
+            gradient: &self.gradient,
+        };
+        self.transport.step(
+            &self.mesh,
+            &self.fluid.polymer(),
+            dt,
+            &flow,
+            &mut self.history,
+        )?;
+        // 4. project_conformation
+        let t1 = Instant::now();
+        self.projection.project_conformation(
+            &self.mesh,
+            &self.history.current,
+            &mut self.conformation,
+        )?;
+        let conformation_projection = t1.elapsed().as_secs_f64();
+        // 5. steady test
+        let du_max = max_change(&self.velocity, &sol.u);
+        let ds_max = match &self.history.previous {
+            Some(prev) => self
+                .history
+                .current
+                .iter()
+                .zip(prev)
+                .map(|(a, b)| {
+                    let d = *a - *b;
+                    d.xx.abs().max(d.xy.abs()).max(d.yy.abs())
+                })
+                .fold(0.0, f64::max),
+            None => f64::INFINITY,
+        };
+        self.velocity = sol.u;
+        self.pressure = sol.p;
+        self.time = step as f64 * dt;
+        let tol = self.params.steady_tol;
+        Ok(StepReport {
+            step,
+            time: self.time,
+            du_max,
+            ds_max,
+            steady: du_max < tol && ds_max < tol,
+            timings: StepTimings {
+                flow_assembly: ft.assembly,
+                flow_symbolic: ft.symbolic,
+                flow_factor: ft.numeric,
+                flow_solve: ft.solve,
+                gradient_projection,
+                transport: self.transport.timings,
+                conformation_projection,
+                total: t_step.elapsed().as_secs_f64(),
+            },
+        })
+    }
+
+    /// Steps until `t_end` (or, if `stop_when_steady`, until the steady criterion holds), calling
+    /// `observe` after every step.
+    ///
+    /// # Errors
+    /// As [`step`](Self::step).
+    pub fn run(
+        &mut self,
+        force: &dyn Fn([f64; 2]) -> [f64; 2],
+        stop_when_steady: bool,
+        mut observe: impl FnMut(&Self, &StepReport),
+    ) -> Result<RunSummary, ViscoelasticError> {
+        let n_steps = (self.params.t_end / self.params.dt).round() as usize;
+        let mut last = None;
+        while self.history.steps() < n_steps {
+            let rep = self.step(force)?;
+            observe(self, &rep);
+            last = Some(rep);
+            if stop_when_steady && rep.steady {
+                break;
+            }
+        }
+        Ok(RunSummary {
+            steps: self.history.steps(),
+            time: self.time,
+            steady: last.is_some_and(|r| r.steady),
+            last,
+        })
+    }
+
+    /// The mesh.
+    pub fn mesh(&self) -> &Mesh {
+        &self.mesh
+    }
+
+    /// The fluid.
+    pub fn fluid(&self) -> Fluid {
+        self.fluid
+    }
+
+    /// The parameters.
+    pub fn params(&self) -> &ViscoelasticParams {
+        &self.params
+    }
+
+    /// Current time.
+    pub fn time(&self) -> f64 {
+        self.time
+    }
+
+    /// Velocity at the Q2 nodes.
+    pub fn velocity(&self) -> &[[f64; 2]] {
+        &self.velocity
+    }
+
+    /// Pressure at the Q1 vertices.
+    pub fn pressure(&self) -> &[f64] {
+        &self.pressure
+    }
+
+    /// Velocity gradient G at the Q1 vertices.
+    pub fn gradient(&self) -> &[[f64; 4]] {
+        &self.gradient
+    }
+
+    /// Log-conformation time levels (sⁿ, s^{n−1}).
+    pub fn history(&self) -> &LogConformationHistory {
+        &self.history
+    }
+
+    /// Projected conformation cⁿ at the Q1 vertices.
+    pub fn conformation(&self) -> &[Sym2] {
+        &self.conformation
+    }
+
+    /// Domain mean of the polymer stress τ = G(c − I) (the mean of Π exp(s) equals that of
+    /// exp(s_h): constants are Q1 test functions).
+    pub fn mean_polymer_stress(&self) -> Sym2 {
+        let cuts = self.projection.cuts();
+        let m = fluid_mean(&self.mesh, cuts, |e, xi| {
+            let c = crate::solver::constitutive_projection::sym_at(
+                &self.mesh,
+                &self.conformation,
+                e,
+                xi,
+            );
+            [c.xx, c.xy, c.yy]
+        });
+        self.fluid.polymer().stress(Sym2::new(m[0], m[1], m[2]))
+    }
+
+    /// Domain mean of the total extra stress 2η_s D(u) + τ.
+    pub fn mean_extra_stress(&self) -> Sym2 {
+        let cuts: &[ElementCut] = self.projection.cuts();
+        let d = fluid_mean(&self.mesh, cuts, |e, xi| {
+            let d = velocity_gradient_at(&self.mesh, &self.velocity, e, xi).rate_of_deformation();
+            [d.xx, d.xy, d.yy]
+        });
+        2.0 * self.fluid.eta_s() * Sym2::new(d[0], d[1], d[2]) + self.mean_polymer_stress()
+    }
+
+    /// Number of unknowns of the flow system and of one log-conformation component.
+    pub fn sizes(&self) -> (usize, usize) {
+        (self.stokes.size().0, self.transport.size().0)
+    }
+}
+
+fn max_change(a: &[[f64; 2]], b: &[[f64; 2]]) -> f64 {
+    a.iter()
+        .zip(b)
+        .map(|(x, y)| (x[0] - y[0]).abs().max((x[1] - y[1]).abs()))
+        .fold(0.0, f64::max)
+}
