@@ -29,19 +29,22 @@ lint: deps
 	$(CARGO) fmt --all -- --check
 	$(CARGO) clippy $(PROFILE) --all-targets -- -D warnings
 
-# A small real run: today the validated solver studies (the particle sweep engine is issue 6;
-# `make demo` will run sweeps/demo.toml and write its database and figures once it lands).
-demo: build
-	@mkdir -p results/demo
-	$(BIN) validate stokes-mms --levels 4 | tee results/demo/stokes-mms.md
-	$(BIN) validate couette --levels 4 | tee results/demo/couette.md
-	$(BIN) bench stokes --mesh 100x25 --repeats 3 | tee results/demo/bench-stokes.txt
-	@echo "demo outputs written to results/demo/"
+# A small real sweep: two particles in confined Stokes shear flow (sweeps/demo.toml), its results
+# database (results/demo.db, resumable: a rerun skips finished cases), its table and its figures.
+demo: build figures-deps
+	$(BIN) sweep sweeps/demo.toml --db results/demo.db
+	$(BIN) query cases --db results/demo.db
+	$(MAKE) --no-print-directory figures DB=results/demo.db
+	@echo "demo: database results/demo.db, figures in results/figures/demo/"
 
 # Heavy validation studies; record their output in docs/validation.md.
 validate: build
 	$(BIN) validate stokes-mms --levels 5
 	$(BIN) validate couette --levels 5
+	$(BIN) validate xfem-stokes --levels 5
+	$(BIN) validate cylinder --wi 0
+	$(BIN) validate free-particle
+	$(BIN) validate two-particles
 	$(CARGO) test $(PROFILE) -- --ignored
 
 # Benchmarks; record their output in docs/performance.md.

@@ -202,7 +202,11 @@ output = { sample_every = 10, snapshot_every = 300 }
 }
 
 /// The virtual environment's python, created with `make figures-deps` if it is missing or incomplete.
+/// Serializes the venv set-up: the tests run in parallel and two `python3 -m venv` at once clash.
+static VENV_LOCK: std::sync::Mutex<()> = std::sync::Mutex::new(());
+
 fn venv_python() -> PathBuf {
+    let _guard = VENV_LOCK.lock().unwrap_or_else(|e| e.into_inner());
     let python = repo().join(".venv/bin/python");
     let ready = python.exists()
         && Command::new(&python)

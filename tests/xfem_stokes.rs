@@ -1,30 +1,51 @@
-//! XFEM Stokes checks on coarse meshes (fast); the full studies run with `make validate`.
+//! XFEM Stokes checks on coarse meshes (fast); the full studies run with `make validate`
+//! (`xpflow validate xfem-stokes`, `xpflow validate cylinder --wi 0`, `xpflow validate free-particle`).
 
 use xpflow::solver::rigid::WeakForm;
-use xpflow::validate::xstokes::{couette_free_particle, cylinder_drag, cylinder_exact};
+use xpflow::validate::xstokes::{
+    couette_free_particle, cylinder_drag, cylinder_exact, FREE_PARTICLE_REFERENCE,
+};
 use xpflow::xfem::CutOptions;
 
 #[test]
-fn exact_cylinder_flow_converges() {
-    for form in [WeakForm::Symmetric, WeakForm::Thesis] {
-        let study = cylinder_exact(4, form, CutOptions::default()).unwrap();
-        println!("{}", study.to_markdown());
-        println!("rates {:?}", study.rates());
-    }
+fn exact_cylinder_flow_converges_at_optimal_rates() {
+    let study = cylinder_exact(4, WeakForm::Symmetric, CutOptions::default()).unwrap();
+    println!("{}", study.to_markdown());
+    assert!(study.passed(), "{}", study.to_markdown());
 }
 
 #[test]
-fn drag_coarse() {
-    for form in [WeakForm::Symmetric, WeakForm::Thesis] {
-        let r = cylinder_drag(0.1, form, CutOptions::default()).unwrap();
-        println!("{form:?} {r:?}");
-    }
+fn confined_cylinder_drag_matches_the_benchmark() {
+    // Published K = 132.358 (thesis Table 2.3); on the coarse h = 0.1R mesh we measured 132.3586.
+    // Tolerance: the 0.05 %.
+    const K_REF: f64 = 132.358;
+    const REL_TOL: f64 = 5e-4;
+    let r = cylinder_drag(0.1, WeakForm::Symmetric, CutOptions::default()).unwrap();
+    println!("{r:?}");
+    assert!(
+        (r.k_reaction - K_REF).abs() / K_REF < REL_TOL,
+        "K = {}",
+        r.k_reaction
+    );
+    // the stress integral is a second, less accurate estimate of the same force
+    assert!(
+        (r.k_stress - K_REF).abs() / K_REF < 10.0 * REL_TOL,
+        "K(stress) = {}",
+        r.k_stress
+    );
 }
 
 #[test]
-fn couette_particle_rotation() {
-    for form in [WeakForm::Symmetric, WeakForm::Thesis] {
-        let r = couette_free_particle(0.4, form, CutOptions::default()).unwrap();
-        println!("{form:?} {r:?}");
-    }
+fn free_particle_in_couette_flow_rotates_like_the_reference() {
+    // Reference: boundary-fitted P2-P1 values (shared/reference/validation.md), 0.3 % cross-check.
+    const REL_TOL: f64 = 3e-3;
+    // U must vanish by symmetry: round-off of the solve and the quadrature
+    const ZERO_TOL: f64 = 1e-8;
+    let (conf, omega_ref) = FREE_PARTICLE_REFERENCE[5]; // 2a/H = 0.4
+    let r = couette_free_particle(conf, WeakForm::Symmetric, CutOptions::default()).unwrap();
+    assert!(r[0].abs() < ZERO_TOL && r[1].abs() < ZERO_TOL, "{r:?}");
+    assert!(
+        (r[2].abs() - omega_ref).abs() / omega_ref < REL_TOL,
+        "{r:?} vs {omega_ref}"
+    );
 }

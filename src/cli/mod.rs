@@ -42,6 +42,15 @@ pub enum Command {
         /// Linear solver.
         #[arg(long, value_enum, default_value_t = SolverArg::Lblt)]
         solver: SolverArg,
+        /// Weissenberg number (cylinder study).
+        #[arg(long, default_value_t = 0.0)]
+        wi: f64,
+        /// Element sizes near the cylinder, in units of R (cylinder study; comma-separated).
+        #[arg(long, value_delimiter = ',', default_values_t = vec![0.1, 0.05, 0.03])]
+        h: Vec<f64>,
+        /// Directory for CSV output (trajectories).
+        #[arg(long, default_value = "results/validate")]
+        out: std::path::PathBuf,
     },
     /// Run a performance benchmark.
     Bench {
@@ -69,8 +78,14 @@ pub enum Study {
     StokesMms,
     /// Plane and circular Couette flow.
     Couette,
-    /// Newtonian / Oldroyd-B drag on the confined cylinder (Ch. 2).
+    /// Newtonian / Oldroyd-B drag on the confined cylinder (Ch. 2): prints `K = <value>`.
     Cylinder,
+    /// XFEM Stokes around a cylinder with the exact solution of thesis §2.4 (rates).
+    XfemStokes,
+    /// Free particle at the centre of plane Couette flow: ω/γ̇ against confinement 2a/H.
+    FreeParticle,
+    /// Two particles in confined Stokes shear flow (thesis §5.6.2): reverse / pass.
+    TwoParticles,
 }
 
 /// Benchmarks.
@@ -127,7 +142,13 @@ pub fn run(cli: Cli) -> anyhow::Result<ExitCode> {
             study,
             levels,
             solver,
-        } => validate(study, levels, solver.into()),
+            wi,
+            h,
+            out,
+        } => match study {
+            Study::StokesMms | Study::Couette => validate(study, levels, solver.into()),
+            _ => validate_particles(study, levels, wi, &h, &out),
+        },
         Command::Bench {
             name: BenchName::Stokes,
             mesh,
@@ -172,8 +193,110 @@ fn validate(study: Study, levels: usize, solver: SolverKind) -> anyhow::Result<E
             println!("{}", s.to_markdown());
             ok &= s.passed();
         }
-        Study::Cylinder => return not_built("validate cylinder", "XFEM core: issue 3"),
+        _ => unreachable!("particle studies go through validate_particles"),
     }
+    Ok(if ok {
+        ExitCode::SUCCESS
+    } else {
+        ExitCode::FAILURE
+    })
+}
+
+fn validate_particles(
+    study: Study,
+    levels: usize,
+    wi: f64,
+    hs: &[f64],
+    out: &std::path::Path,
+) -> anyhow::Result<ExitCode> {
+    use crate::solver::rigid::WeakForm;
+    use crate::validate::xstokes::{
+        couette_free_particle, cylinder_drag, cylinder_exact, FREE_PARTICLE_REFERENCE,
+    };
+    use crate::xfem::CutOptions;
+    let mut ok = true;
+    match study {
+        Study::Cylinder => {
+            if wi != 0.0 {
+                return not_built(
+                    "validate cylinder --wi > 0",
+                    "viscoelastic flow past a fixed cylinder: issue 4",
+                );
+            }
+            // published K = 132.358 (thesis Table 2.3); the issue asks for 0.05 %
+            const K_REF: f64 = 132.358;
+            const REL_TOL: f64 = 5e-4;
+            println!(
+                "Confined cylinder, Newtonian (Wi = 0), H = 4R, L = 30R, reference K = {K_REF}"
+            );
+            println!("| h/R | mesh | unknowns | K (reaction) | K (stress integral) | error | time |\n|---|---|---|---|---|---|---|");
+            let mut last = 0.0;
+            for &h in hs {
+                let r = cylinder_drag(h, WeakForm::Symmetric, CutOptions::default())?;
+                let err = (r.k_reaction - K_REF) / K_REF;
+                println!(
+                    "| {h} | {} | {} | {:.4} | {:.4} | {:+.2e} | {:.1} s |",
+                    r.mesh, r.dofs, r.k_reaction, r.k_stress, err, r.seconds
+                );
+                ok &= err.abs() < REL_TOL;
+                last = r.k_reaction;
+            }
+            println!("K = {last:.4}");
+        }
+        Study::XfemStokes => {
+            for form in [WeakForm::Symmetric, WeakForm::Thesis] {
+                let s = cylinder_exact(levels, form, CutOptions::default())?;
+                println!("{}", s.to_markdown());
+                ok &= s.passed();
+            }
+        }
+        Study::FreeParticle => {
+            // cross-check tolerance of the reference table (validation.md §1)
+            const REL_TOL: f64 = 3e-3;
+            println!("| 2a/H | U_x | U_y | ω/γ̇ | reference | rel. difference |\n|---|---|---|---|---|---|");
+            for conf in [0.4, 0.2, 0.1, 0.05, 0.04] {
+                let r = couette_free_particle(conf, WeakForm::Symmetric, CutOptions::default())?;
+                let reference = FREE_PARTICLE_REFERENCE
+                    .iter()
+                    .find(|(c, _)| (c - conf).abs() < 1e-12)
+                    .map(|(_, w)| *w);
+                let (refs, diff) = match reference {
+                    Some(w) => {
+                        let d = (r[2].abs() - w) / w;
+                        ok &= d.abs() < REL_TOL;
+                        (format!("{w}"), format!("{d:+.2e}"))
+                    }
+                    None => (
+                        "(limit 0.5)".to_string(),
+                        format!("{:+.2e} from 0.5", r[2].abs() - 0.5),
+                    ),
+                };
+                println!(
+                    "| {conf} | {:.1e} | {:.1e} | {:.5} | {refs} | {diff} |",
+                    r[0], r[1], r[2]
+                );
+            }
+        }
+        Study::TwoParticles => {
+            let runs = crate::validate::particles::two_particles_stokes([240, 60], 0.1, Some(out))?;
+            println!("| l_y | outcome | expected | decided at t | steps | time |\n|---|---|---|---|---|---|");
+            for r in &runs {
+                println!(
+                    "| {:.2} | {} | {} | {:.1} | {} | {:.0} s |",
+                    r.ly,
+                    r.kind.as_str(),
+                    r.expected.as_str(),
+                    r.t_decided,
+                    r.steps,
+                    r.seconds
+                );
+                ok &= r.kind == r.expected;
+            }
+            println!("trajectories: {}/two_particles_ly*.csv", out.display());
+        }
+        Study::StokesMms | Study::Couette => unreachable!("handled by validate"),
+    }
+    println!("verdict: {}", if ok { "PASS" } else { "FAIL" });
     Ok(if ok {
         ExitCode::SUCCESS
     } else {

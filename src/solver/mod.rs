@@ -1,10 +1,10 @@
 //! Weak forms and solvers.
 
-pub mod cutcells;
-pub mod motion;
 pub mod constitutive;
 pub mod constitutive_projection;
 pub mod constitutive_stress;
+pub mod cutcells;
+pub mod motion;
 pub mod norms;
 pub mod polymer_terms;
 pub mod rigid;

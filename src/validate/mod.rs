@@ -1,9 +1,10 @@
 //! Validation studies shared by `xpflow validate`, `make validate` and the test suite: each
 //! returns its measured numbers and a verdict against named thresholds.
 
+pub mod particles;
 pub mod stokes;
-pub mod xstokes;
 pub mod viscoelastic;
+pub mod xstokes;
 
 /// One row of a convergence table.
 #[derive(Debug, Clone)]

@@ -308,6 +308,21 @@ pub fn cylinder_drag(h: f64, form: WeakForm, opts: CutOptions) -> Result<DragRes
     })
 }
 
+/// |ω|/γ̇ of a free particle at the centre of plane Couette flow against 2a/H, from an independent
+/// boundary-fitted P2–P1 computation (`shared/reference/validation.md` §1; not published, a
+/// 0.3 % cross-check; the limit 0.5 as 2a/H → 0 is exact).
+pub const FREE_PARTICLE_REFERENCE: [(f64, f64); 9] = [
+    (0.05, 0.49932),
+    (0.10, 0.49724),
+    (0.20, 0.48872),
+    (0.25, 0.48208),
+    (0.30, 0.47370),
+    (0.40, 0.45109),
+    (0.50, 0.41958),
+    (0.60, 0.37767),
+    (0.80, 0.25547),
+];
+
 /// A free (force- and torque-free) particle at the centre of plane Couette flow (walls y = ±H/2
 /// moving at ±U/2, H = 1, periodic length L = 8): returns (U_x, U_y, ω/γ̇). The exact limit for
 /// 2a/H → 0 is ω/γ̇ = −1/2 (the rotation of the unbounded shear flow).
