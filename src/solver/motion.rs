@@ -37,6 +37,17 @@ pub struct ShearCase {
     pub cut: CutOptions,
 }
 
+/// The flow fields of the last solve, for snapshots.
+#[derive(Debug, Clone)]
+pub struct FlowFields {
+    /// Velocity at the Q2 nodes.
+    pub u: Vec<[f64; 2]>,
+    /// Pressure at the Q1 vertices.
+    pub p: Vec<f64>,
+    /// Particles (centres wrapped into the period) of that solve.
+    pub particles: Vec<Particle>,
+}
+
 /// Why a quasi-static run stopped.
 #[derive(Debug, Clone, PartialEq)]
 pub enum MotionEnd {
@@ -96,7 +107,7 @@ impl ShearCase {
         mesh: &Mesh,
         x: &[[f64; 2]],
         step: u64,
-    ) -> Result<(Vec<[f64; 2]>, Vec<f64>), MotionError> {
+    ) -> Result<(Vec<[f64; 2]>, Vec<f64>, FlowFields), MotionError> {
         let particles: Vec<Particle> = x
             .iter()
             .zip(&self.radius)
@@ -111,7 +122,7 @@ impl ShearCase {
         let mut st = Stokes::with_particles(
             mesh.clone(),
             StokesParams::new(self.eta, 0.0, SolverKind::Lblt),
-            particles,
+            particles.clone(),
             cuts,
         );
         let uw = 0.5 * self.wall_speed;
@@ -126,21 +137,27 @@ impl ShearCase {
         if u.iter().flatten().chain(&w).any(|v| !v.is_finite()) {
             return Err(MotionError::NonFinite { step });
         }
-        Ok((u, w))
+        let fields = FlowFields {
+            u: sol.u,
+            p: sol.p,
+            particles,
+        };
+        Ok((u, w, fields))
     }
 
-    /// Runs to `t_end`; `on_step(step, t, state)` is called after every step (and with step 0 for
-    /// the initial state, whose velocities are solved too) and returns false to stop.
+    /// Runs to `t_end`; `on_step(step, t, state, mesh, fields)` is called after every step (and
+    /// with step 0 for the initial state, whose velocities are solved too) with the flow of that
+    /// step's solve (at the predicted configuration), and returns false to stop.
     pub fn run(
         &self,
-        on_step: &mut dyn FnMut(u64, f64, &RigidState) -> bool,
+        on_step: &mut dyn FnMut(u64, f64, &RigidState, &Mesh, &FlowFields) -> bool,
     ) -> Result<MotionEnd, MotionError> {
         let mesh = self.build_mesh();
         let mut cur = RigidState::at_rest(self.x0.clone());
-        let (u0, w0) = self.rigid_velocities(&mesh, &cur.x, 0)?;
+        let (u0, w0, f0) = self.rigid_velocities(&mesh, &cur.x, 0)?;
         cur.u = u0;
         cur.omega = w0;
-        if !on_step(0, 0.0, &cur) {
+        if !on_step(0, 0.0, &cur, &mesh, &f0) {
             return Ok(MotionEnd::Stopped);
         }
         let mut prev: Option<RigidState> = None;
@@ -158,10 +175,10 @@ impl ShearCase {
             ) {
                 return Ok(MotionEnd::Contact(c));
             }
-            let (u, w) = self.rigid_velocities(&mesh, &x_pred, step)?;
+            let (u, w, fields) = self.rigid_velocities(&mesh, &x_pred, step)?;
             let next = correct(&cur, &u, &w, self.dt, prev.is_none());
             prev = Some(std::mem::replace(&mut cur, next));
-            if !on_step(step, step as f64 * self.dt, &cur) {
+            if !on_step(step, step as f64 * self.dt, &cur, &mesh, &fields) {
                 return Ok(MotionEnd::Stopped);
             }
             if let Some(c) = find_contact(

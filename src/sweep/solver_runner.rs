@@ -6,10 +6,14 @@
 //! refused with a message until their solvers land.
 
 use crate::config::{CaseSpec, Geometry};
-use crate::observe::{CaseObserver, Control, ParticleState, Sample};
+use crate::fem::element::{q1, Q2_NODES};
+use crate::mesh::Mesh;
+use crate::observe::{CaseObserver, Control, FieldSnapshot, NodalField, ParticleState, Sample};
 use crate::particles::RigidState;
-use crate::solver::motion::{MotionEnd, ShearCase};
+use crate::solver::cutcells::level_set;
+use crate::solver::motion::{FlowFields, MotionEnd, ShearCase};
 use crate::sweep::runner::{CaseResult, CaseRunner, RunStatus};
+use crate::xfem::LevelSet;
 use crate::xfem::{CutOptions, InterfaceApprox};
 
 /// Runs cases with the XFEM solver.
@@ -59,6 +63,65 @@ fn sample(step: u64, t: f64, s: &RigidState) -> Sample {
     }
 }
 
+/// Field snapshot on the Q2 nodes (each element drawn as 4 sub-quadrilaterals; the periodic seam
+/// gets its own column of nodes so that no quad spans the domain): velocity, pressure
+/// (interpolated bilinearly from the Q1 vertices) and the particles' level set.
+fn snapshot(step: u64, t: f64, mesh: &Mesh, f: &FlowFields, period: f64) -> FieldSnapshot {
+    let (nx, ny) = mesh.dims();
+    let cols = 2 * nx + 1;
+    let n = cols * (2 * ny + 1);
+    let mut coords = vec![[0.0; 2]; n];
+    let mut u = vec![0.0; 2 * n];
+    let mut p = vec![0.0; n];
+    let mut quads = Vec::with_capacity(4 * nx * ny);
+    for e in 0..mesh.n_elements() {
+        let (ex, ey) = (e % nx, e / nx);
+        let pv: Vec<f64> = mesh.element_vertices[e].iter().map(|&v| f.p[v]).collect();
+        for b in 0..3 {
+            for a in 0..3 {
+                let id = (2 * ex + a) + cols * (2 * ey + b);
+                let k = a + 3 * b;
+                coords[id] = mesh.element_coords[e][k];
+                let node = mesh.elements[e][k];
+                u[2 * id] = f.u[node][0];
+                u[2 * id + 1] = f.u[node][1];
+                let psi = q1(Q2_NODES[k]).0;
+                p[id] = (0..4).map(|m| psi[m] * pv[m]).sum();
+            }
+        }
+        for (a, b) in [(0, 0), (1, 0), (0, 1), (1, 1)] {
+            let id = |da: usize, db: usize| (2 * ex + a + da) + cols * (2 * ey + b + db);
+            quads.push([id(0, 0), id(1, 0), id(1, 1), id(0, 1)]);
+        }
+    }
+    let mut fields = vec![
+        NodalField {
+            name: "u".into(),
+            components: 2,
+            values: u,
+        },
+        NodalField {
+            name: "p".into(),
+            components: 1,
+            values: p,
+        },
+    ];
+    if let Ok(ls) = level_set(&f.particles, Some(period)) {
+        fields.push(NodalField {
+            name: "level_set".into(),
+            components: 1,
+            values: coords.iter().map(|&x| ls.value(x)).collect(),
+        });
+    }
+    FieldSnapshot {
+        step,
+        t,
+        coords,
+        quads,
+        fields,
+    }
+}
+
 impl CaseRunner for SolverRunner {
     fn supports(&self, case: &CaseSpec) -> Result<(), String> {
         match case.geometry {
@@ -85,9 +148,12 @@ impl CaseRunner for SolverRunner {
             };
         };
         let (mut last_step, mut last_t) = (0, 0.0);
-        let end = setup.run(&mut |step, t, state| {
+        let end = setup.run(&mut |step, t, state, mesh, fields| {
             last_step = step;
             last_t = t;
+            if obs.snapshot_due(step) {
+                obs.on_snapshot(&snapshot(step, t, mesh, fields, setup.l));
+            }
             let keep = obs.on_step(&sample(step, t, state)) == Control::Continue;
             if step % 50 == 0 {
                 obs.checkpoint();
