@@ -68,6 +68,9 @@ pub enum Command {
         /// Repeated solves after the first (median reported).
         #[arg(long, default_value_t = 5)]
         repeats: usize,
+        /// Element sizes near the cylinder in units of R (drag benchmark; comma-separated).
+        #[arg(long, value_delimiter = ',', default_values_t = vec![0.2, 0.1, 0.05, 0.03])]
+        h: Vec<f64>,
     },
 }
 
@@ -93,6 +96,9 @@ pub enum Study {
 pub enum BenchName {
     /// One Stokes (Q2/Q1) solve: assembly, symbolic, numeric, refactor, solve.
     Stokes,
+    /// The unfitted Stokes drag problem (confined cylinder, Wi = 0): K, its error and the time of
+    /// each phase, for element sizes `--h`.
+    Drag,
 }
 
 /// Linear solver choice.
@@ -150,17 +156,46 @@ pub fn run(cli: Cli) -> anyhow::Result<ExitCode> {
             _ => validate_particles(study, levels, wi, &h, &out),
         },
         Command::Bench {
-            name: BenchName::Stokes,
+            name,
             mesh,
             solver,
             with_g,
             repeats,
-        } => {
-            let (nx, ny) = parse_mesh(&mesh)?;
-            let b = crate::bench::stokes(nx, ny, solver.into(), with_g, repeats)?;
-            println!("{b}");
-            Ok(ExitCode::SUCCESS)
-        }
+            h,
+        } => match name {
+            BenchName::Stokes => {
+                let (nx, ny) = parse_mesh(&mesh)?;
+                let b = crate::bench::stokes(nx, ny, solver.into(), with_g, repeats)?;
+                println!("{b}");
+                Ok(ExitCode::SUCCESS)
+            }
+            BenchName::Drag => {
+                use crate::solver::rigid::WeakForm;
+                use crate::validate::xstokes::cylinder_drag;
+                // published K (thesis Table 2.3)
+                const K_REF: f64 = 132.358;
+                println!("| h/R | unknowns | K | rel. error | cut cells | assembly | symbolic | numeric | solve | total |");
+                println!("|---|---|---|---|---|---|---|---|---|---|");
+                for hh in h {
+                    let r =
+                        cylinder_drag(hh, WeakForm::Symmetric, crate::xfem::CutOptions::default())?;
+                    let t = r.timings;
+                    println!(
+                        "| {hh} | {} | {:.4} | {:.1e} | {:.3} | {:.3} | {:.3} | {:.3} | {:.3} | {:.2} s |",
+                        r.dofs,
+                        r.k_reaction,
+                        ((r.k_reaction - K_REF) / K_REF).abs(),
+                        r.cut_seconds,
+                        t.assembly,
+                        t.symbolic,
+                        t.numeric,
+                        t.solve,
+                        r.seconds
+                    );
+                }
+                Ok(ExitCode::SUCCESS)
+            }
+        },
     }
 }
 

@@ -264,6 +264,10 @@ pub struct DragResult {
     pub k_stress: f64,
     /// Wall-clock seconds (cut cells + assembly + factorization + solve).
     pub seconds: f64,
+    /// Seconds in the classification and cut-cell quadrature.
+    pub cut_seconds: f64,
+    /// Phase timings of the flow solve.
+    pub timings: crate::solver::stokes::Timings,
 }
 
 /// Newtonian drag of a cylinder (R = 1) centred in a channel H = 4R, periodic with L = 30R,
@@ -284,7 +288,9 @@ pub fn cylinder_drag(h: f64, form: WeakForm, opts: CutOptions) -> Result<DragRes
             omega: 0.0,
         },
     }];
+    let tc = std::time::Instant::now();
     let cuts = compute_cuts(&mesh, &particles, Some(30.0), opts)?;
+    let cut_seconds = tc.elapsed().as_secs_f64();
     let mut params = StokesParams::new(1.0, 0.0, solver_for(form));
     params.rigid_form = form;
     let mut st = Stokes::with_particles(mesh, params, particles, cuts);
@@ -305,6 +311,8 @@ pub fn cylinder_drag(h: f64, form: WeakForm, opts: CutOptions) -> Result<DragRes
         k_reaction: scale * (sol.reaction[0][0] + buoyancy),
         k_stress: scale * (sol.stress_force[0][0] + buoyancy),
         seconds: t0.elapsed().as_secs_f64(),
+        cut_seconds,
+        timings: st.timings,
     })
 }
 
