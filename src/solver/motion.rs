@@ -48,6 +48,17 @@ pub struct FlowFields {
     pub particles: Vec<Particle>,
 }
 
+/// Rigid velocities of free particles at one configuration, with the flow that produced them.
+#[derive(Debug, Clone)]
+pub struct RigidSolve {
+    /// Translational velocities.
+    pub u: Vec<[f64; 2]>,
+    /// Angular velocities (counter-clockwise positive).
+    pub omega: Vec<f64>,
+    /// The flow fields.
+    pub fields: FlowFields,
+}
+
 /// Why a quasi-static run stopped.
 #[derive(Debug, Clone, PartialEq)]
 pub enum MotionEnd {
@@ -101,13 +112,13 @@ impl ShearCase {
         )
     }
 
-    /// Velocities (U, ω) of free particles at centres `x` (ω counter-clockwise positive).
+    /// Velocities (U, ω) of free particles at centres `x` (ω counter-clockwise positive) and the flow.
     pub fn rigid_velocities(
         &self,
         mesh: &Mesh,
         x: &[[f64; 2]],
         step: u64,
-    ) -> Result<(Vec<[f64; 2]>, Vec<f64>, FlowFields), MotionError> {
+    ) -> Result<RigidSolve, MotionError> {
         let particles: Vec<Particle> = x
             .iter()
             .zip(&self.radius)
@@ -142,7 +153,11 @@ impl ShearCase {
             p: sol.p,
             particles,
         };
-        Ok((u, w, fields))
+        Ok(RigidSolve {
+            u,
+            omega: w,
+            fields,
+        })
     }
 
     /// Runs to `t_end`; `on_step(step, t, state, mesh, fields)` is called after every step (and
@@ -154,10 +169,10 @@ impl ShearCase {
     ) -> Result<MotionEnd, MotionError> {
         let mesh = self.build_mesh();
         let mut cur = RigidState::at_rest(self.x0.clone());
-        let (u0, w0, f0) = self.rigid_velocities(&mesh, &cur.x, 0)?;
-        cur.u = u0;
-        cur.omega = w0;
-        if !on_step(0, 0.0, &cur, &mesh, &f0) {
+        let first = self.rigid_velocities(&mesh, &cur.x, 0)?;
+        cur.u = first.u;
+        cur.omega = first.omega;
+        if !on_step(0, 0.0, &cur, &mesh, &first.fields) {
             return Ok(MotionEnd::Stopped);
         }
         let mut prev: Option<RigidState> = None;
@@ -175,10 +190,10 @@ impl ShearCase {
             ) {
                 return Ok(MotionEnd::Contact(c));
             }
-            let (u, w, fields) = self.rigid_velocities(&mesh, &x_pred, step)?;
-            let next = correct(&cur, &u, &w, self.dt, prev.is_none());
+            let solved = self.rigid_velocities(&mesh, &x_pred, step)?;
+            let next = correct(&cur, &solved.u, &solved.omega, self.dt, prev.is_none());
             prev = Some(std::mem::replace(&mut cur, next));
-            if !on_step(step, step as f64 * self.dt, &cur, &mesh, &fields) {
+            if !on_step(step, step as f64 * self.dt, &cur, &mesh, &solved.fields) {
                 return Ok(MotionEnd::Stopped);
             }
             if let Some(c) = find_contact(
