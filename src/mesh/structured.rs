@@ -176,6 +176,23 @@ impl Mesh {
             .collect()
     }
 
+    /// Flux ∫ u_x dy through the node column i = 0 (x = x0; on a periodic rectangle the seam),
+    /// by Simpson's rule on each element edge — exact for the Q2 interpolant on straight edges.
+    /// For an incompressible periodic flow this is the flow rate.
+    pub fn flux_through_first_column(&self, u: &[[f64; 2]]) -> f64 {
+        let mut col: Vec<usize> = (0..self.n_nodes())
+            .filter(|&k| self.node_ij(k).0 == 0)
+            .collect();
+        col.sort_by_key(|&k| self.node_ij(k).1);
+        col.windows(3)
+            .step_by(2)
+            .map(|w| {
+                let (y0, y2) = (self.nodes[w[0]][1], self.nodes[w[2]][1]);
+                (y2 - y0) / 6.0 * (u[w[0]][0] + 4.0 * u[w[1]][0] + u[w[2]][0])
+            })
+            .sum()
+    }
+
     /// Smallest element edge length in physical space (by corner distances).
     pub fn min_element_size(&self) -> f64 {
         self.element_coords

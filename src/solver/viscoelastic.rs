@@ -22,9 +22,11 @@ use crate::solver::constitutive::{
     ConstitutiveError, LogConformationHistory, LogConformationTransport, TransportFlow,
     TransportTimings,
 };
-use crate::solver::constitutive_projection::{fluid_mean, velocity_gradient_at, Q1Projection};
+use crate::solver::constitutive_projection::{
+    fluid_mean, sym_at, velocity_gradient_at, Q1Projection,
+};
 use crate::solver::constitutive_stress::{Coupling, CouplingStress};
-use crate::solver::rigid::ElementCut;
+use crate::solver::rigid::{ElementCut, Particle};
 use crate::solver::stokes::{Stokes, StokesParams};
 
 /// Steady-state tolerance of thesis §2.5.1: nodal changes of u and s below 1e-6 per step.
@@ -118,6 +120,10 @@ pub enum ViscoelasticError {
          use DEVSS-G (θ = η_p) or the semi-implicit coupling"
     )]
     NoViscosityInFlowMatrix,
+    /// Flow-rate control superposes a unit-force response, valid only when the flow matrix does
+    /// not depend on the stress.
+    #[error("flow-rate control needs the explicit stress coupling (the semi-implicit flow matrix changes every step)")]
+    FlowRateNeedsExplicit,
     /// The flow solve failed.
     #[error("flow solve failed at step {step}: {source}")]
     Flow {
@@ -198,6 +204,25 @@ pub struct ViscoelasticFlow {
     pressure: Vec<f64>,
     time: f64,
     started: bool,
+    cuts: Vec<ElementCut>,
+    flow_rate: Option<FlowRateControl>,
+    /// Weak-condition reaction (force x, y, torque) of each particle in the last flow solve.
+    reaction: Vec<[f64; 3]>,
+    /// Body force of the last flow solve (flow-rate control), 0 otherwise.
+    body_force: f64,
+}
+
+/// Flow-rate control of a periodic channel: Stokes flow is linear in the body force, and with the
+/// explicit coupling the flow matrix does not depend on the stress, so the flow of each step is
+/// u = u_τ + f u₁, with u₁ the response to a unit body force (computed once) and f chosen so
+/// that the flux through the seam equals the target.
+#[derive(Debug, Clone)]
+struct FlowRateControl {
+    target: f64,
+    unit_u: Vec<[f64; 2]>,
+    unit_p: Vec<f64>,
+    unit_flux: f64,
+    unit_reaction: Vec<[f64; 3]>,
 }
 
 impl ViscoelasticFlow {
@@ -209,6 +234,22 @@ impl ViscoelasticFlow {
     /// a bad Δt or end time, [`ViscoelasticError::Theta`] for a bad θ,
     /// [`ViscoelasticError::NoViscosityInFlowMatrix`] for η_s = θ = 0 with explicit coupling.
     pub fn new(mesh: Mesh, params: ViscoelasticParams) -> Result<Self, ViscoelasticError> {
+        let cuts = vec![ElementCut::Fluid; mesh.n_elements()];
+        Self::with_particles(mesh, params, Vec::new(), cuts)
+    }
+
+    /// Like [`new`](Self::new), for a mesh cut by particles (`cuts` from
+    /// [`crate::solver::cutcells::compute_cuts`]): the flow, the stress transport and the
+    /// projections integrate over the fluid part only.
+    ///
+    /// # Errors
+    /// As [`new`](Self::new).
+    pub fn with_particles(
+        mesh: Mesh,
+        params: ViscoelasticParams,
+        particles: Vec<Particle>,
+        cuts: Vec<ElementCut>,
+    ) -> Result<Self, ViscoelasticError> {
         let fluid = params.fluid()?;
         let solver = match params.coupling {
             Coupling::Explicit => SolverKind::Lblt,
@@ -217,10 +258,21 @@ impl ViscoelasticFlow {
         let mut sp = StokesParams::new(params.eta_s, params.theta, solver);
         sp.coupled_g = params.coupled_g;
         let (nv, nn) = (mesh.n_vertices(), mesh.n_nodes());
+        let n_particles = particles.len();
+        let mut transport = LogConformationTransport::new(&mesh);
+        let mut projection = Q1Projection::new(&mesh);
+        if n_particles > 0 {
+            transport.set_cuts(&mesh, cuts.clone());
+            projection.set_cuts(&mesh, cuts.clone());
+        }
         Ok(Self {
-            stokes: Stokes::new(mesh.clone(), sp),
-            transport: LogConformationTransport::new(&mesh),
-            projection: Q1Projection::new(&mesh),
+            stokes: Stokes::with_particles(mesh.clone(), sp, particles, cuts.clone()),
+            transport,
+            projection,
+            cuts,
+            flow_rate: None,
+            reaction: vec![[0.0; 3]; n_particles],
+            body_force: 0.0,
             fluid,
             params,
             history: LogConformationHistory::at_rest(nv),
@@ -244,15 +296,108 @@ impl ViscoelasticFlow {
         self.stokes.pin_pressure();
     }
 
+    /// Drives a periodic channel (walls and bodies at rest, x-periodic) at flow rate `q` with a
+    /// uniform body force in x adjusted every step (see [`FlowRateControl`]). Call after the
+    /// boundary conditions are set; the `force` passed to [`step`](Self::step) must then be zero.
+    ///
+    /// # Errors
+    /// [`ViscoelasticError::Flow`] if the unit solve fails, [`ViscoelasticError::FlowRateNeedsExplicit`]
+    /// for the semi-implicit coupling (its flow matrix changes with the stress).
+    pub fn set_flow_rate(&mut self, q: f64) -> Result<(), ViscoelasticError> {
+        if self.params.coupling != Coupling::Explicit {
+            return Err(ViscoelasticError::FlowRateNeedsExplicit);
+        }
+        let unit = self
+            .stokes
+            .solve(&|_| [1.0, 0.0])
+            .map_err(|source| ViscoelasticError::Flow { step: 0, source })?;
+        let unit_flux = self.mesh.flux_through_first_column(&unit.u);
+        self.flow_rate = Some(FlowRateControl {
+            target: q,
+            unit_u: unit.u,
+            unit_p: unit.p,
+            unit_flux,
+            unit_reaction: unit.reaction,
+        });
+        Ok(())
+    }
+
+    /// Adds the flow-rate correction f·(u₁, p₁) to a solution and returns f.
+    fn control_flow_rate(
+        &self,
+        u: &mut [[f64; 2]],
+        p: &mut [f64],
+        reaction: &mut [[f64; 3]],
+    ) -> f64 {
+        let Some(fr) = &self.flow_rate else {
+            return 0.0;
+        };
+        let f = (fr.target - self.mesh.flux_through_first_column(u)) / fr.unit_flux;
+        u.iter_mut().zip(&fr.unit_u).for_each(|(a, b)| {
+            a[0] += f * b[0];
+            a[1] += f * b[1];
+        });
+        p.iter_mut().zip(&fr.unit_p).for_each(|(a, b)| *a += f * b);
+        reaction
+            .iter_mut()
+            .zip(&fr.unit_reaction)
+            .for_each(|(a, b)| {
+                for c in 0..3 {
+                    a[c] += f * b[c];
+                }
+            });
+        f
+    }
+
+    /// Hydrodynamic force and torque on each particle: the weak-condition reaction of the last
+    /// flow solve (solvent stress, pressure and stabilization, consistent with the discrete
+    /// momentum balance) plus the polymer stress integral −∮ τ·n ds with the current τ. With
+    /// flow-rate control the mean pressure gradient's traction f·(particle area) is included.
+    pub fn particle_forces(&self) -> Vec<[f64; 3]> {
+        let g = self.fluid.polymer().modulus();
+        let mut out = self.reaction.clone();
+        for (e, cut) in self.cuts.iter().enumerate() {
+            let ElementCut::Cut(cut) = cut else { continue };
+            for pc in &cut.particles {
+                for bp in &pc.points {
+                    let c = sym_at(&self.mesh, &self.conformation, e, bp.xi);
+                    let tau = (c - Sym2::IDENTITY) * g;
+                    let t = [
+                        -(tau.xx * bp.n[0] + tau.xy * bp.n[1]),
+                        -(tau.xy * bp.n[0] + tau.yy * bp.n[1]),
+                    ];
+                    let r = [bp.x[0] - pc.center[0], bp.x[1] - pc.center[1]];
+                    let f = &mut out[pc.particle];
+                    f[0] += bp.w * t[0];
+                    f[1] += bp.w * t[1];
+                    f[2] += bp.w * (r[0] * t[1] - r[1] * t[0]);
+                }
+            }
+        }
+        if self.flow_rate.is_some() {
+            for (f, p) in out.iter_mut().zip(self.stokes.particles()) {
+                f[0] += self.body_force * std::f64::consts::PI * p.radius * p.radius;
+            }
+        }
+        out
+    }
+
+    /// Body force of the last flow solve (flow-rate control), 0 without it.
+    pub fn body_force(&self) -> f64 {
+        self.body_force
+    }
+
     /// Solves the flow at t = 0 with zero polymer stress (s = 0) and sets G⁰.
     ///
     /// # Errors
     /// [`ViscoelasticError::Flow`] or [`ViscoelasticError::Stress`] if a solve fails.
     pub fn start(&mut self, force: &dyn Fn([f64; 2]) -> [f64; 2]) -> Result<(), ViscoelasticError> {
-        let sol = self
+        let mut sol = self
             .stokes
             .solve(force)
             .map_err(|source| ViscoelasticError::Flow { step: 0, source })?;
+        self.body_force = self.control_flow_rate(&mut sol.u, &mut sol.p, &mut sol.reaction);
+        self.reaction = sol.reaction;
         self.velocity = sol.u;
         self.pressure = sol.p;
         match sol.g {
@@ -293,11 +438,13 @@ impl ViscoelasticFlow {
             devss: (!self.params.coupled_g && self.params.theta > 0.0)
                 .then_some((self.params.theta, self.gradient.as_slice())),
         };
-        let sol = self
+        let mut sol = self
             .stokes
             .solve_with(force, Some(&stress))
             .map_err(|source| ViscoelasticError::Flow { step, source })?;
         let ft = self.stokes.timings;
+        self.body_force = self.control_flow_rate(&mut sol.u, &mut sol.p, &mut sol.reaction);
+        self.reaction = std::mem::take(&mut sol.reaction);
         // 2. project_gradient
         let t0 = Instant::now();
         match sol.g {

@@ -37,6 +37,9 @@ const MAX_EDGE_DEPTH: u32 = 40;
 /// Safety factor on the midpoint deviation of an edge piece from its chord (1 would be exact for
 /// quadratic and circular edges; the margin covers other smooth edges).
 const CHORD_DEVIATION_SAFETY: f64 = 1.5;
+/// Crossing angles closer than this (radians) are one crossing: arcs shorter than 1e-7 a only
+/// arise from round-off near tangencies.
+const ANGLE_MERGE: f64 = 1e-7;
 
 /// Options of the interface quadrature.
 #[derive(Debug, Clone, Copy, PartialEq)]
@@ -233,6 +236,12 @@ impl InterfaceQuadrature {
             return Ok(());
         }
         self.angles.sort_by(f64::total_cmp);
+        // Near a tangency the edge function |x − X| − a stays within round-off of zero over a
+        // stretch of edge and the bracketing finds many spurious crossings there (seen: 10⁵
+        // angles within ±1.5e-8 rad, i.e. 4·10⁵ quadrature points in one element). Merge
+        // clusters; each arc between the remaining angles is still kept or dropped by its
+        // midpoint, so parity does not matter.
+        self.angles.dedup_by(|b, a| (*b - *a).abs() < ANGLE_MERGE);
         let n = self.angles.len();
         for j in 0..n {
             let t0 = self.angles[j];
@@ -341,6 +350,32 @@ mod tests {
         // the order of the square root of the rounding error).
         let pts = points([0.3, -0.7], 0.7);
         assert!(length(&pts) < 1e-7, "{}", length(&pts));
+    }
+
+    #[test]
+    fn tangent_circle_gives_few_points_not_a_cloud() {
+        // Circle of radius 1 centred at x = 0.0123 touches the edge x = 1.0123 of the element
+        // [1.0123, 1.2123] × [−0.0952, 0.0952] (the confined-cylinder mesh where this was
+        // seen): round-off made 10⁵ spurious crossings before the angle merge.
+        let x0 = 0.0123;
+        let u = CircleUnion::new(
+            vec![Circle {
+                center: [x0, 0.0],
+                radius: 1.0,
+            }],
+            Some(30.0),
+        )
+        .unwrap();
+        let mut iq = InterfaceQuadrature::new(InterfaceOptions::default()).unwrap();
+        for (lo, hi) in [
+            ([x0 + 1.0, -0.0952], [x0 + 1.2, 0.0952]),
+            ([x0 + 0.8, -0.0952], [x0 + 1.0, 0.0952]),
+        ] {
+            let mut pts = Vec::new();
+            iq.points_into(&RectMap::new(lo, hi), &u, &mut pts).unwrap();
+            // a full cut element carries ≤ 16 arc pieces × 4 points; the tangent one ~nothing
+            assert!(pts.len() <= 64, "{} points", pts.len());
+        }
     }
 
     #[test]
