@@ -401,6 +401,11 @@ fn validate_cylinder_viscoelastic(
             csv += &format!("{t},{k}\n");
         }
         std::fs::write(out.join(format!("cylinder_wi{wi}_h{h}.csv")), csv)?;
+        let mut csv = String::from("xi,x,y,tau_xx\n");
+        for v in &r.tau_xx {
+            csv += &format!("{},{},{},{}\n", v[0], v[1], v[2], v[3]);
+        }
+        std::fs::write(out.join(format!("cylinder_tau_xx_wi{wi}_h{h}.csv")), csv)?;
         last = r.k;
     }
     println!("K = {last:.4}");

@@ -193,6 +193,31 @@ impl Mesh {
             .sum()
     }
 
+    /// Element containing `x` and the reference coordinates there, for rectangle meshes (x is
+    /// wrapped into the period when periodic); `None` outside the mesh or for an annulus.
+    pub fn locate(&self, x: [f64; 2]) -> Option<(usize, [f64; 2])> {
+        if self.shape != Shape::Rectangle {
+            return None;
+        }
+        let (x0, x1) = (self.ax.vertices[0], *self.ax.vertices.last()?);
+        let (y0, y1) = (self.ay.vertices[0], *self.ay.vertices.last()?);
+        let mut px = x[0];
+        if self.periodic {
+            px = x0 + (px - x0).rem_euclid(x1 - x0);
+        }
+        if !(x0..=x1).contains(&px) || !(y0..=y1).contains(&x[1]) {
+            return None;
+        }
+        let (ex, ey) = (self.ax.locate(px), self.ay.locate(x[1]));
+        let (a, b) = (self.ax.vertices[ex], self.ax.vertices[ex + 1]);
+        let (c, d) = (self.ay.vertices[ey], self.ay.vertices[ey + 1]);
+        let xi = [
+            2.0 * (px - a) / (b - a) - 1.0,
+            2.0 * (x[1] - c) / (d - c) - 1.0,
+        ];
+        Some((ey * self.ax.len() + ex, xi))
+    }
+
     /// Smallest element edge length in physical space (by corner distances).
     pub fn min_element_size(&self) -> f64 {
         self.element_coords
@@ -241,6 +266,27 @@ mod tests {
         assert!((area(&m) - 4.0).abs() < 1e-12);
         assert_eq!(m.side_nodes(Side::Left).len(), 0);
         assert_eq!(m.side_nodes(Side::Bottom).len(), 16);
+    }
+
+    #[test]
+    fn locate_inverts_the_rectangle_map() {
+        // affine elements: the inverse is exact up to round-off
+        const TOL: f64 = 1e-12;
+        let m = Mesh::rectangle(
+            Axis::graded(-2.0, 2.0, 9, 0.3, 1.5),
+            Axis::uniform(0.0, 1.0, 4),
+            true,
+        );
+        for x in [[0.123, 0.77], [-1.99, 0.01], [5.123 - 4.0, 0.5]] {
+            let (e, xi) = m.locate(x).unwrap();
+            let p = q2_map(&m.element_coords[e], xi).0;
+            let px = -2.0 + (x[0] + 2.0).rem_euclid(4.0);
+            assert!(
+                (p[0] - px).abs() < TOL && (p[1] - x[1]).abs() < TOL,
+                "{x:?} -> {p:?}"
+            );
+        }
+        assert!(m.locate([0.0, 1.5]).is_none());
     }
 
     #[test]

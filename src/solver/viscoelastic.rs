@@ -382,6 +382,13 @@ impl ViscoelasticFlow {
         out
     }
 
+    /// Polymer stress τ = G(c − I) at a point (rectangle meshes), from the projected conformation.
+    pub fn polymer_stress_at(&self, x: [f64; 2]) -> Option<Sym2> {
+        let (e, xi) = self.mesh.locate(x)?;
+        let c = sym_at(&self.mesh, &self.conformation, e, xi);
+        Some((c - Sym2::IDENTITY) * self.fluid.polymer().modulus())
+    }
+
     /// Body force of the last flow solve (flow-rate control), 0 without it.
     pub fn body_force(&self) -> f64 {
         self.body_force

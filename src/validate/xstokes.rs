@@ -382,6 +382,9 @@ pub struct ViscoDragResult {
     pub seconds_per_step: f64,
     /// K after every step (t, K).
     pub history: Vec<(f64, f64)>,
+    /// τ_xx along the cylinder surface from the front stagnation point to the rear one and on
+    /// along the wake centreline (thesis Fig. 2.16): (ξ, x, y, τ_xx/(η0 U/R)).
+    pub tau_xx: Vec<[f64; 4]>,
 }
 
 /// Oldroyd-B flow past the confined cylinder (thesis §2.5: η_s/η0 = 0.59, H = 4R, L = 30R, mean
@@ -418,6 +421,26 @@ pub fn cylinder_drag_viscoelastic(
         history.push((rep.time, f.particle_forces()[0][0]));
     })?;
     let k = history.last().map_or(f64::NAN, |h| h.1);
+    // Surface: θ from π (front) to 0 (rear) over the upper half, sampled just inside the fluid
+    // (r = R(1 + 1e-6)); then the wake y = 0 from x = R to the periodic seam.
+    let mut tau_xx = Vec::new();
+    const ON_FLUID_SIDE: f64 = 1.0 + 1e-6;
+    for k in 0..=200 {
+        let th = std::f64::consts::PI * (1.0 - k as f64 / 200.0);
+        let p = [
+            CYLINDER_X + ON_FLUID_SIDE * th.cos(),
+            ON_FLUID_SIDE * th.sin(),
+        ];
+        if let Some(t) = flow.polymer_stress_at(p) {
+            tau_xx.push([std::f64::consts::PI - th, p[0], p[1], t.xx]);
+        }
+    }
+    for k in 0..=300 {
+        let x = CYLINDER_X + ON_FLUID_SIDE + 14.0 * k as f64 / 300.0;
+        if let Some(t) = flow.polymer_stress_at([x, 0.0]) {
+            tau_xx.push([std::f64::consts::PI + (x - CYLINDER_X - 1.0), x, 0.0, t.xx]);
+        }
+    }
     Ok(ViscoDragResult {
         wi,
         h,
@@ -427,5 +450,6 @@ pub fn cylinder_drag_viscoelastic(
         steady: summary.steady,
         seconds_per_step: t0.elapsed().as_secs_f64() / summary.steps.max(1) as f64,
         history,
+        tau_xx,
     })
 }
