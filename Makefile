@@ -54,6 +54,7 @@ bench: build
 	$(BIN) bench stokes --mesh 440x110
 	$(BIN) bench stokes --mesh 440x110 --with-g
 	$(BIN) bench stokes --mesh 200x50 --solver lu --repeats 2
+	$(BIN) bench drag
 
 # Figures and tables from results databases (plotting/, docs/figures.md): `make figures` plots every
 # results/*.db, `make figures DB=results/demo.db` one (or several, space-separated) into results/figures/<db>/.
