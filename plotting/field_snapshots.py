@@ -79,7 +79,14 @@ def draw_case(f: fl.Figures, c: fl.Case, path: str, page: str) -> bool:
         pick = [groups[i] for i in sorted({round(x) for x in np.linspace(0, len(groups) - 1, min(PER_CASE, len(groups)))})]
         snaps = [read_snapshot(h5, g) for g in pick]
     fields = {s[2] for s in snaps}
-    vals = np.concatenate([s[3] for s in snaps if s[3] is not None]) if any(s[3] is not None for s in snaps) else None
+    # Colour range from fluid nodes only (level set > 0) and the 1st-99th percentiles: nodes of
+    # cut elements with tiny fluid parts can carry large pressure values that would flatten the
+    # rest of the picture.
+    fluid_vals = [s[3][s[4] > 0] if s[4] is not None else s[3] for s in snaps if s[3] is not None]
+    vals = np.concatenate(fluid_vals) if fluid_vals else None
+    if vals is not None and vals.size and np.isfinite(vals).any():
+        lo_p, hi_p = np.nanpercentile(vals, [1.0, 99.0])
+        vals = np.array([lo_p, hi_p])
     span = np.ptp(snaps[0][0], axis=0)
     aspect = span[1] / span[0] if span[0] > 0 else 1.0
     width = 10.0
