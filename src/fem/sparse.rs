@@ -76,6 +76,15 @@ impl PatternBuilder {
     }
 }
 
+/// The pattern of a scalar Q1 field: vertices coupled within each element (`groups`).
+pub fn q1_pattern(n_vertices: usize, groups: &[[usize; 4]]) -> SparseMatrix {
+    let mut pb = PatternBuilder::new(n_vertices);
+    for g in groups {
+        pb.add_group(g);
+    }
+    pb.build()
+}
+
 impl SparseMatrix {
     /// Dimension.
     pub fn n(&self) -> usize {

@@ -31,7 +31,7 @@ use std::time::Instant;
 use crate::fem::element::{physical_gradients, q1, q2, q2_map};
 use crate::fem::linsolve::{DirectSolver, SolveError, SolverKind};
 use crate::fem::quadrature::gauss_quad;
-use crate::fem::sparse::{PatternBuilder, SparseMatrix};
+use crate::fem::sparse::{q1_pattern, SparseMatrix};
 use crate::mesh::Mesh;
 use crate::rheology::{log_conformation_rhs, Giesekus, Sym2, VelocityGradient};
 use crate::solver::rigid::ElementCut;
@@ -273,15 +273,11 @@ impl LogConformationTransport {
     /// all elements fluid.
     pub fn new(mesh: &Mesh) -> Self {
         let nv = mesh.n_vertices();
-        let mut pb = PatternBuilder::new(nv);
-        for ev in &mesh.element_vertices {
-            pb.add_group(ev);
-        }
         let rule = gauss_quad(3);
         Self {
             n_vertices: nv,
             n_elements: mesh.n_elements(),
-            matrix: pb.build(),
+            matrix: q1_pattern(nv, &mesh.element_vertices),
             rhs: [vec![0.0; nv], vec![0.0; nv], vec![0.0; nv]],
             fixed: vec![None; nv],
             solver: None,

@@ -11,7 +11,7 @@
 use crate::fem::element::{physical_gradients, q1, q2, q2_map};
 use crate::fem::linsolve::{DirectSolver, SolverKind};
 use crate::fem::quadrature::gauss_quad;
-use crate::fem::sparse::{PatternBuilder, SparseMatrix};
+use crate::fem::sparse::{q1_pattern, SparseMatrix};
 use crate::mesh::Mesh;
 use crate::rheology::{Sym2, VelocityGradient};
 use crate::solver::constitutive::{inactive_vertices, ConstitutiveError};
@@ -130,14 +130,10 @@ impl Q1Projection {
     /// factored on the first projection.
     pub fn new(mesh: &Mesh) -> Self {
         let nv = mesh.n_vertices();
-        let mut pb = PatternBuilder::new(nv);
-        for ev in &mesh.element_vertices {
-            pb.add_group(ev);
-        }
         let rule = gauss_quad(3);
         Self {
             n_vertices: nv,
-            matrix: pb.build(),
+            matrix: q1_pattern(nv, &mesh.element_vertices),
             fixed: vec![None; nv],
             solver: None,
             factored: false,

@@ -88,13 +88,7 @@ pub fn boundary_terms(
     n: [f64; 2],
     lin: &StressLin,
 ) {
-    let local = |alpha: usize| {
-        if alpha < 18 {
-            alpha
-        } else {
-            off_rigid + alpha - 18
-        }
-    };
+    let local = |alpha: usize| crate::solver::rigid::local_jump_dof(alpha, off_rigid);
     let bn = [
         lin.b[0][0] * n[0] + lin.b[0][1] * n[1],
         lin.b[1][0] * n[0] + lin.b[1][1] * n[1],

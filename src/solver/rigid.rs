@@ -164,13 +164,7 @@ pub fn weak_rigid_kernel(
             }
         }
     }
-    let local = |alpha: usize| {
-        if alpha < 18 {
-            alpha
-        } else {
-            off_rigid + alpha - 18
-        }
-    };
+    let local = |alpha: usize| local_jump_dof(alpha, off_rigid);
     // Y_β = M⁻¹ (A_β + A_βᵀ), column per ij component.
     for beta in 0..21 {
         let mut y = [[0.0f64; 4]; 9];
@@ -193,6 +187,17 @@ pub fn weak_rigid_kernel(
         }
     }
     consistency_terms(ke, nd, off_rigid, cut, center, eta, form);
+}
+
+/// Local matrix index of jump dof `alpha` (0..18 velocity, 18..21 the rigid unknowns stored at
+/// `off_rigid..off_rigid + 3`).
+#[inline]
+pub fn local_jump_dof(alpha: usize, off_rigid: usize) -> usize {
+    if alpha < 18 {
+        alpha
+    } else {
+        off_rigid + alpha - 18
+    }
 }
 
 /// Jump vectors g of the 21 jump dofs at a boundary point: velocity dof (a, c) → N_a e_c,
@@ -243,13 +248,7 @@ fn consistency_terms(
         for m in 0..4 {
             tv[18 + m] = [-psi[m] * n[0], -psi[m] * n[1]];
         }
-        let local = |alpha: usize| {
-            if alpha < 18 {
-                alpha
-            } else {
-                off_rigid + alpha - 18
-            }
-        };
+        let local = |alpha: usize| local_jump_dof(alpha, off_rigid);
         for alpha in 0..21 {
             for beta in 0..22 {
                 let v = -bp.w * (jv[alpha][0] * tv[beta][0] + jv[alpha][1] * tv[beta][1]);

@@ -252,6 +252,25 @@ fn channel_axes(h: f64) -> (Axis, Axis) {
     )
 }
 
+/// The confined-cylinder channel mesh, the fixed cylinder and the cut cells.
+fn cylinder_channel(
+    h: f64,
+    opts: CutOptions,
+) -> Result<(Mesh, Vec<Particle>, Vec<ElementCut>), StudyError> {
+    let (ax, ay) = channel_axes(h);
+    let mesh = Mesh::rectangle(ax, ay, true);
+    let particles = vec![Particle {
+        center: [CYLINDER_X, 0.0],
+        radius: 1.0,
+        motion: Motion::Prescribed {
+            u: [0.0, 0.0],
+            omega: 0.0,
+        },
+    }];
+    let cuts = compute_cuts(&mesh, &particles, Some(30.0), opts)?;
+    Ok((mesh, particles, cuts))
+}
+
 /// Result of the confined-cylinder drag computation (thesis §2.5.1, Newtonian).
 #[derive(Debug, Clone)]
 pub struct DragResult {
@@ -279,19 +298,9 @@ pub struct DragResult {
 /// 15 % per element toward x = ±15.
 pub fn cylinder_drag(h: f64, form: WeakForm, opts: CutOptions) -> Result<DragResult, StudyError> {
     let t0 = std::time::Instant::now();
-    let (ax, ay) = channel_axes(h);
-    let label = format!("{}x{}", ax.len(), ay.len());
-    let mesh = Mesh::rectangle(ax, ay, true);
-    let particles = vec![Particle {
-        center: [CYLINDER_X, 0.0],
-        radius: 1.0,
-        motion: Motion::Prescribed {
-            u: [0.0, 0.0],
-            omega: 0.0,
-        },
-    }];
     let tc = std::time::Instant::now();
-    let cuts = compute_cuts(&mesh, &particles, Some(30.0), opts)?;
+    let (mesh, particles, cuts) = cylinder_channel(h, opts)?;
+    let label = format!("{}x{}", mesh.ax.len(), mesh.ay.len());
     let cut_seconds = tc.elapsed().as_secs_f64();
     let mut params = StokesParams::new(1.0, 0.0, solver_for(form));
     params.rigid_form = form;
@@ -398,17 +407,7 @@ pub fn cylinder_drag_viscoelastic(
     opts: CutOptions,
 ) -> Result<ViscoDragResult, StudyError> {
     use crate::solver::viscoelastic::{ViscoelasticFlow, ViscoelasticParams};
-    let (ax, ay) = channel_axes(h);
-    let mesh = Mesh::rectangle(ax, ay, true);
-    let particles = vec![Particle {
-        center: [CYLINDER_X, 0.0],
-        radius: 1.0,
-        motion: Motion::Prescribed {
-            u: [0.0, 0.0],
-            omega: 0.0,
-        },
-    }];
-    let cuts = compute_cuts(&mesh, &particles, Some(30.0), opts)?;
+    let (mesh, particles, cuts) = cylinder_channel(h, opts)?;
     let params = ViscoelasticParams::new(0.59, 0.41, wi, 0.0, dt, t_max);
     let mut flow = ViscoelasticFlow::with_particles(mesh, params, particles, cuts)?;
     flow.set_velocity(Side::Bottom, |_| [0.0, 0.0]);
