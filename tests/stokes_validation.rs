@@ -43,3 +43,27 @@ fn circular_couette_converges() {
     println!("{}", study.to_markdown());
     assert!(study.passed(), "{}", study.to_markdown());
 }
+
+#[test]
+fn an_unchanged_matrix_reuses_its_factorization() {
+    use xpflow::mesh::{Axis, Mesh, Side};
+    use xpflow::solver::stokes::{Stokes, StokesParams};
+    let mesh = Mesh::rectangle(Axis::uniform(0.0, 2.0, 8), Axis::uniform(0.0, 1.0, 4), true);
+    let mut st = Stokes::new(mesh, StokesParams::new(1.0, 0.0, SolverKind::Lblt));
+    st.set_velocity(Side::Bottom, |_| [0.0, 0.0]);
+    st.set_velocity(Side::Top, |_| [1.0, 0.0]);
+    st.pin_pressure();
+    let a = st.solve(&|x| [x[1], 0.0]).unwrap();
+    // same matrix, another load: no new factorization, and the solution follows the load
+    let b = st.solve(&|x| [2.0 * x[1], 0.0]).unwrap();
+    assert_eq!(st.refactorizations, 1);
+    assert!(a
+        .u
+        .iter()
+        .zip(&b.u)
+        .any(|(p, q)| (p[0] - q[0]).abs() > 1e-3));
+    // a changed viscosity changes the matrix: refactorized
+    st.params.eta = 2.0;
+    st.solve(&|x| [x[1], 0.0]).unwrap();
+    assert_eq!(st.refactorizations, 2);
+}

@@ -159,6 +159,10 @@ pub struct Stokes {
     fixed: Vec<Option<f64>>,
     pressure_pinned: bool,
     solver: Option<DirectSolver>,
+    factored_values: Option<Vec<f64>>,
+    /// Numeric factorizations done so far (a solve reuses the last one when the matrix is
+    /// unchanged).
+    pub refactorizations: usize,
     rule: QuadRule,
     particles: Vec<Particle>,
     cuts: Vec<ElementCut>,
@@ -260,6 +264,8 @@ impl Stokes {
             fixed,
             pressure_pinned: false,
             solver: None,
+            factored_values: None,
+            refactorizations: 0,
             rule: gauss_quad(3),
             particles,
             cuts,
@@ -335,7 +341,14 @@ impl Stokes {
         }
         let t2 = Instant::now();
         let solver = self.solver.as_mut().expect("analysed above");
-        solver.factor(&self.matrix)?;
+        // The matrix depends on the geometry, the constraints and an implicit stress only: when
+        // its values are bitwise those of the last factorization (explicit stress coupling on a
+        // fixed geometry) the factorization is reused and only the solve is paid.
+        if self.factored_values.as_deref() != Some(self.matrix.values.as_slice()) {
+            solver.factor(&self.matrix)?;
+            self.factored_values = Some(self.matrix.values.clone());
+            self.refactorizations += 1;
+        }
         let t3 = Instant::now();
         let residual =
             solver.solve_checked(&self.matrix, &self.rhs, &mut self.sol, RESIDUAL_TOL)?;
