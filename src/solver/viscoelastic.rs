@@ -297,7 +297,8 @@ impl ViscoelasticFlow {
     }
 
     /// Drives a periodic channel (walls and bodies at rest, x-periodic) at flow rate `q` with a
-    /// uniform body force in x adjusted every step (see [`FlowRateControl`]). Call after the
+    /// uniform body force in x adjusted every step (u = u_τ + f u₁ with a precomputed unit-force
+    /// response; exact because the explicit-coupling flow matrix does not depend on τ). Call after the
     /// boundary conditions are set; the `force` passed to [`step`](Self::step) must then be zero.
     ///
     /// # Errors
