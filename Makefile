@@ -45,6 +45,8 @@ validate: build
 	$(BIN) validate cylinder --wi 0
 	$(BIN) validate free-particle
 	$(BIN) validate two-particles
+	$(BIN) validate cylinder --wi 0.3 --h 0.1,0.05 --dt 0.01 --t-max 15
+	$(BIN) validate cylinder --wi 0.6 --h 0.1 --dt 0.01 --t-max 30
 	$(CARGO) test $(PROFILE) -- --ignored
 
 # Benchmarks; record their output in docs/performance.md.
