@@ -79,9 +79,26 @@ SYMBOL = {
 }
 
 
+#: Longest line of a parameter description before it wraps (titles are centred: longer lines are
+#: clipped at the figure edges).
+DESCRIBE_WIDTH = 80
+
+
 def describe(params: dict) -> str:
-    """'Wi = 1, α = 0.01, ...' for the given (name → value) pairs, skipping None."""
-    return ", ".join(f"{SYMBOL.get(k, k)} = {fmt(v)}" for k, v in params.items() if v is not None)
+    """'Wi = 1, α = 0.01, ...' for the given (name → value) pairs, skipping None, wrapped to
+    DESCRIBE_WIDTH characters per line."""
+    parts = [f"{SYMBOL.get(k, k)} = {fmt(v)}" for k, v in params.items() if v is not None]
+    lines, cur = [], ""
+    for p in parts:
+        cand = f"{cur}, {p}" if cur else p
+        if cur and len(cand) > DESCRIBE_WIDTH:
+            lines.append(cur + ",")
+            cur = p
+        else:
+            cur = cand
+    if cur:
+        lines.append(cur)
+    return "\n".join(lines)
 
 
 # -------------------------------------------------------------------------------------------------- cases
