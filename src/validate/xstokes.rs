@@ -396,6 +396,9 @@ pub struct ViscoDragResult {
     pub tau_xx: Vec<[f64; 4]>,
 }
 
+/// Steps between progress lines (stderr) of [`cylinder_drag_viscoelastic`].
+const PROGRESS_EVERY: usize = 100;
+
 /// Oldroyd-B flow past the confined cylinder (thesis §2.5: η_s/η0 = 0.59, H = 4R, L = 30R, mean
 /// velocity U = 1, Wi = λU/R), explicit stress coupling with DEVSS-G, run from rest until the
 /// steady criterion or `t_max`. Published K: 123.19 at Wi = 0.3, 117.77 at Wi = 0.6 (Table 2.4).
@@ -417,7 +420,17 @@ pub fn cylinder_drag_viscoelastic(
     let mut history = Vec::new();
     let t0 = std::time::Instant::now();
     let summary = flow.run(&|_| [0.0, 0.0], true, |f, rep| {
-        history.push((rep.time, f.particle_forces()[0][0]));
+        let k = f.particle_forces()[0][0];
+        history.push((rep.time, k));
+        if rep.step % PROGRESS_EVERY == 0 {
+            let m = f.mesh();
+            let xu = m.nodes[rep.du_node];
+            let xs = m.nodes[m.node_of_vertex[rep.ds_vertex]];
+            eprintln!(
+                "  t = {:7.2}  K = {k:.6}  max|Δu| = {:.2e} at ({:.3}, {:.3})  max|Δs| = {:.2e} at ({:.3}, {:.3})",
+                rep.time, rep.du_max, xu[0], xu[1], rep.ds_max, xs[0], xs[1]
+            );
+        }
     })?;
     let k = history.last().map_or(f64::NAN, |h| h.1);
     // Surface: θ from π (front) to 0 (rear) over the upper half, sampled just inside the fluid
