@@ -133,6 +133,9 @@ pub enum ViscoelasticError {
         #[source]
         source: SolveError,
     },
+    /// Flow-rate control with moving particles.
+    #[error("flow-rate control needs fixed bodies (its unit-force response belongs to one configuration)")]
+    FlowRateNeedsFixedBodies,
     /// The stress solve or a projection failed.
     #[error(transparent)]
     Stress(#[from] ConstitutiveError),
@@ -218,6 +221,55 @@ pub struct ViscoelasticFlow {
     /// of nodes inside particles: they belong to cut elements with a possibly tiny fluid part
     /// and carry no physical meaning).
     fluid_node: Vec<bool>,
+    /// Mesh velocity u_m at the Q2 nodes of the temporary ALE map of the coming step.
+    mesh_velocity: Option<Vec<[f64; 2]>>,
+    /// Rigid-body velocities (U_x, U_y, ω) of the particles in the last flow solve.
+    rigid: Vec<[f64; 3]>,
+}
+
+/// Q1 interpolation of a vertex field at a point: the element's vertices and their weights.
+pub type Q1Weights = ([usize; 4], [f64; 4]);
+
+/// How the history moves onto the current configuration (temporary ALE map, thesis §5.3.3):
+/// for every Q1 vertex x the interpolation at its pre-images xⁿ = Φₙ⁻¹(x) and
+/// xⁿ⁻¹ = Φₙ₋₁⁻¹(xⁿ), Eqs. 5.42–5.43, and the mesh velocity of Eq. 5.44.
+#[derive(Debug, Clone, Copy)]
+pub struct HistoryMap<'a> {
+    /// Interpolation of the fields at tⁿ (sⁿ, Gⁿ) at each vertex's pre-image.
+    pub at_n: &'a [Q1Weights],
+    /// Interpolation of s^{n−1}; `None` makes the coming step first order (Euler, Eq. 5.53).
+    pub at_n_minus_1: Option<&'a [Q1Weights]>,
+    /// Mesh velocity u_m^{n+1} at the Q2 nodes.
+    pub mesh_velocity: &'a [[f64; 2]],
+}
+
+/// The four velocity-gradient components, as a vector space for interpolation.
+#[derive(Debug, Clone, Copy)]
+struct Grad4([f64; 4]);
+
+impl std::ops::Add for Grad4 {
+    type Output = Self;
+    fn add(self, o: Self) -> Self {
+        Grad4(std::array::from_fn(|i| self.0[i] + o.0[i]))
+    }
+}
+
+impl std::ops::Mul<f64> for Grad4 {
+    type Output = Self;
+    fn mul(self, a: f64) -> Self {
+        Grad4(self.0.map(|v| v * a))
+    }
+}
+
+fn interpolate<T>(field: &[T], at: &[Q1Weights]) -> Vec<T>
+where
+    T: Copy + std::ops::Add<Output = T> + std::ops::Mul<f64, Output = T>,
+{
+    at.iter()
+        .map(|(v, w)| {
+            field[v[0]] * w[0] + field[v[1]] * w[1] + field[v[2]] * w[2] + field[v[3]] * w[3]
+        })
+        .collect()
 }
 
 /// Flow-rate control of a periodic channel: Stokes flow is linear in the body force, and with the
@@ -276,6 +328,8 @@ impl ViscoelasticFlow {
         let fluid_node = fluid_nodes(&mesh, &particles, &cuts);
         Ok(Self {
             fluid_node,
+            mesh_velocity: None,
+            rigid: vec![[0.0; 3]; n_particles],
             stokes: Stokes::with_particles(mesh.clone(), sp, particles, cuts.clone()),
             transport,
             projection,
@@ -360,13 +414,85 @@ impl ViscoelasticFlow {
         f
     }
 
+    /// Moves the particles to new positions (the predicted configuration of the coming step,
+    /// with its `cuts`): the flow, transport and projection solvers take the new fluid domain,
+    /// the history sⁿ, s^{n−1} and Gⁿ are carried over by the temporary ALE `map`, cⁿ is
+    /// re-projected on the new fluid domain, and the coming step convects with u − u_m.
+    ///
+    /// # Errors
+    /// [`ViscoelasticError::FlowRateNeedsFixedBodies`] with flow-rate control (its unit response
+    /// belongs to one configuration), [`ViscoelasticError::Stress`] if the projection fails.
+    ///
+    /// # Panics
+    /// Panics if the number of particles changes or the map does not cover every vertex.
+    pub fn move_particles(
+        &mut self,
+        particles: Vec<Particle>,
+        cuts: Vec<ElementCut>,
+        map: HistoryMap<'_>,
+    ) -> Result<(), ViscoelasticError> {
+        if self.flow_rate.is_some() {
+            return Err(ViscoelasticError::FlowRateNeedsFixedBodies);
+        }
+        let nv = self.mesh.n_vertices();
+        assert_eq!(map.at_n.len(), nv, "one pre-image per vertex");
+        self.fluid_node = fluid_nodes(&self.mesh, &particles, &cuts);
+        self.transport.set_cuts(&self.mesh, cuts.clone());
+        self.projection.set_cuts(&self.mesh, cuts.clone());
+        self.stokes.set_particles(particles, cuts.clone());
+        self.cuts = cuts;
+        let h = &mut self.history;
+        h.current = interpolate(&h.current, map.at_n);
+        h.previous = match (h.previous.take(), map.at_n_minus_1) {
+            (Some(prev), Some(at)) => Some(interpolate(&prev, at)),
+            _ => None,
+        };
+        let g: Vec<Grad4> = self.gradient.iter().map(|&g| Grad4(g)).collect();
+        self.gradient = interpolate(&g, map.at_n).into_iter().map(|g| g.0).collect();
+        self.mesh_velocity = Some(map.mesh_velocity.to_vec());
+        self.projection.project_conformation(
+            &self.mesh,
+            &self.history.current,
+            &mut self.conformation,
+        )?;
+        Ok(())
+    }
+
+    /// Rigid-body velocities (U_x, U_y, ω counter-clockwise) of the particles in the last flow
+    /// solve.
+    pub fn rigid_velocities(&self) -> &[[f64; 3]] {
+        &self.rigid
+    }
+
+    /// Pattern rebuilds of the flow matrix caused by moving particles (the rest reused the
+    /// symbolic factorization).
+    pub fn pattern_rebuilds(&self) -> usize {
+        self.stokes.pattern_rebuilds
+    }
+
     /// Hydrodynamic force and torque on each particle: the weak-condition reaction of the last
     /// flow solve (solvent stress, pressure and stabilization, consistent with the discrete
     /// momentum balance) plus the polymer stress integral −∮ τ·n ds with the current τ. With
     /// flow-rate control the mean pressure gradient's traction f·(particle area) is included.
     pub fn particle_forces(&self) -> Vec<[f64; 3]> {
+        let mut out = self.polymer_forces();
+        for (f, r) in out.iter_mut().zip(&self.reaction) {
+            (0..3).for_each(|c| f[c] += r[c]);
+        }
+        if self.flow_rate.is_some() {
+            for (f, p) in out.iter_mut().zip(self.stokes.particles()) {
+                f[0] += self.body_force * std::f64::consts::PI * p.radius * p.radius;
+            }
+        }
+        out
+    }
+
+    /// The polymer part of [`particle_forces`](Self::particle_forces): force and torque
+    /// ∮ τ·n ds (n out of the particle) with the current projected conformation; its x component
+    /// is the K of thesis §5.4.
+    pub fn polymer_forces(&self) -> Vec<[f64; 3]> {
         let g = self.fluid.polymer().modulus();
-        let mut out = self.reaction.clone();
+        let mut out = vec![[0.0; 3]; self.reaction.len()];
         for (e, cut) in self.cuts.iter().enumerate() {
             let ElementCut::Cut(cut) = cut else { continue };
             for pc in &cut.particles {
@@ -383,11 +509,6 @@ impl ViscoelasticFlow {
                     f[1] += bp.w * t[1];
                     f[2] += bp.w * (r[0] * t[1] - r[1] * t[0]);
                 }
-            }
-        }
-        if self.flow_rate.is_some() {
-            for (f, p) in out.iter_mut().zip(self.stokes.particles()) {
-                f[0] += self.body_force * std::f64::consts::PI * p.radius * p.radius;
             }
         }
         out
@@ -416,6 +537,7 @@ impl ViscoelasticFlow {
             .map_err(|source| ViscoelasticError::Flow { step: 0, source })?;
         self.body_force = self.control_flow_rate(&mut sol.u, &mut sol.p, &mut sol.reaction);
         self.reaction = sol.reaction;
+        self.rigid = sol.rigid;
         self.velocity = sol.u;
         self.pressure = sol.p;
         match sol.g {
@@ -452,7 +574,7 @@ impl ViscoelasticFlow {
             conformation: &self.conformation,
             coupling: self.params.coupling,
             dt,
-            mesh_velocity: None,
+            mesh_velocity: self.mesh_velocity.as_deref(),
             devss: (!self.params.coupled_g && self.params.theta > 0.0)
                 .then_some((self.params.theta, self.gradient.as_slice())),
         };
@@ -463,6 +585,7 @@ impl ViscoelasticFlow {
         let ft = self.stokes.timings;
         self.body_force = self.control_flow_rate(&mut sol.u, &mut sol.p, &mut sol.reaction);
         self.reaction = std::mem::take(&mut sol.reaction);
+        self.rigid = std::mem::take(&mut sol.rigid);
         // 2. project_gradient
         let t0 = Instant::now();
         match sol.g {
@@ -476,7 +599,7 @@ impl ViscoelasticFlow {
         // 3. solve_stress
         let flow = TransportFlow {
             velocity: &sol.u,
-            mesh_velocity: None,
+            mesh_velocity: self.mesh_velocity.as_deref(),
             gradient: &self.gradient,
         };
         self.transport.step(
@@ -496,19 +619,15 @@ impl ViscoelasticFlow {
         let conformation_projection = t1.elapsed().as_secs_f64();
         // 5. steady test
         let fluid = &self.fluid_node;
-        let (du_node, du_max) = arg_max(
-            self.velocity
-                .iter()
-                .zip(&sol.u)
-                .zip(fluid)
-                .map(|((x, y), &f)| {
-                    if f {
-                        (x[0] - y[0]).abs().max((x[1] - y[1]).abs())
-                    } else {
-                        0.0
-                    }
-                }),
-        );
+        let (du_node, du_max) = arg_max(self.velocity.iter().zip(&sol.u).zip(fluid).map(
+            |((x, y), &f)| {
+                if f {
+                    (x[0] - y[0]).abs().max((x[1] - y[1]).abs())
+                } else {
+                    0.0
+                }
+            },
+        ));
         let node_of_vertex = &self.mesh.node_of_vertex;
         let (ds_vertex, ds_max) = match &self.history.previous {
             Some(prev) => arg_max(self.history.current.iter().zip(prev).enumerate().map(
@@ -679,7 +798,11 @@ fn fluid_nodes(mesh: &Mesh, particles: &[Particle], cuts: &[ElementCut]) -> Vec<
 
 /// Index and value of the largest item (0 and 0 when empty; NaN wins so that divergence shows).
 fn arg_max(values: impl Iterator<Item = f64>) -> (usize, f64) {
-    values
-        .enumerate()
-        .fold((0, 0.0), |(i, m), (j, v)| if v > m || v.is_nan() && !m.is_nan() { (j, v) } else { (i, m) })
+    values.enumerate().fold((0, 0.0), |(i, m), (j, v)| {
+        if v > m || v.is_nan() && !m.is_nan() {
+            (j, v)
+        } else {
+            (i, m)
+        }
+    })
 }
