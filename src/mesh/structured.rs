@@ -246,27 +246,29 @@ impl Mesh {
         let (mut et, mut er) = (self.ax.locate(theta), self.ay.locate(r));
         for _ in 0..=MAX_MOVES {
             let e = er * nt + et;
-            let xi = invert_q2_map(&self.element_coords[e], x, self.initial_guess(et, er, theta, r));
+            let xi = invert_q2_map(
+                &self.element_coords[e],
+                x,
+                self.initial_guess(et, er, theta, r),
+            );
             let out = |v: f64| v.abs() > 1.0 + ROUND_OFF;
             if !out(xi[0]) && !out(xi[1]) {
                 return Some((e, xi.map(|v| v.clamp(-1.0, 1.0))));
             }
             // step toward the violated side: θ wraps around, r stops at the circles
-            let (t_out, r_out) = (out(xi[0]), out(xi[1]));
-            let r_step = if !r_out {
-                None
-            } else if xi[1] < 0.0 {
-                er.checked_sub(1)
+            if out(xi[0]) {
+                et = if xi[0] < 0.0 {
+                    (et + nt - 1) % nt
+                } else {
+                    (et + 1) % nt
+                };
+            } else if xi[1] < 0.0 && er > 0 {
+                er -= 1;
+            } else if xi[1] > 0.0 && er + 1 < nr {
+                er += 1;
             } else {
-                Some(er + 1).filter(|&j| j < nr)
-            };
-            match (t_out, r_out, r_step) {
-                (true, _, _) if xi[0] < 0.0 => et = (et + nt - 1) % nt,
-                (true, _, _) => et = (et + 1) % nt,
-                (false, true, Some(j)) => er = j,
                 // outside the discrete annulus radially, inside the exact one (checked above)
-                (false, true, None) => return Some((e, xi.map(|v| v.clamp(-1.0, 1.0)))),
-                (false, false, _) => unreachable!("ξ inside was returned above"),
+                return Some((e, xi.map(|v| v.clamp(-1.0, 1.0))));
             }
         }
         None
@@ -395,11 +397,16 @@ mod tests {
         // deterministic pseudo-random points (LCG) spread over the exact annulus, seam included
         let mut s: u64 = 12345;
         let mut next = || {
-            s = s.wrapping_mul(6364136223846793005).wrapping_add(1442695040888963407);
+            s = s
+                .wrapping_mul(6364136223846793005)
+                .wrapping_add(1442695040888963407);
             (s >> 11) as f64 / (1u64 << 53) as f64
         };
         for _ in 0..2000 {
-            let (r, th) = (1.0 + 3.0 * next(), 2.0 * std::f64::consts::PI * (next() - 0.5));
+            let (r, th) = (
+                1.0 + 3.0 * next(),
+                2.0 * std::f64::consts::PI * (next() - 0.5),
+            );
             let x = [r * th.cos(), r * th.sin()];
             let (e, xi) = m.locate(x).expect("a point of the annulus is located");
             let p = q2_map(&m.element_coords[e], xi).0;
@@ -441,9 +448,11 @@ mod tests {
                 let (f, xi) = m.locate(*x).unwrap();
                 // the node must be node (a, b) of the located element at ξ = (a − 1, b − 1)
                 let ref_xi = |a: usize| a as f64 - 1.0;
-                let hit = (0..9).find(|&l| m.elements[f][l] == nodes[k]).unwrap_or_else(|| {
-                    panic!("node {} of element {e} located in {f} without it", nodes[k])
-                });
+                let hit = (0..9)
+                    .find(|&l| m.elements[f][l] == nodes[k])
+                    .unwrap_or_else(|| {
+                        panic!("node {} of element {e} located in {f} without it", nodes[k])
+                    });
                 assert!((xi[0] - ref_xi(hit % 3)).abs() < TOL, "{e}/{k}: {xi:?}");
                 assert!((xi[1] - ref_xi(hit / 3)).abs() < TOL, "{e}/{k}: {xi:?}");
                 if k == 4 {
