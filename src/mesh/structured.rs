@@ -7,6 +7,7 @@
 //! has the Q2 nodes `(2ex + a, 2ey + b)`, `a, b ∈ {0, 1, 2}`, in tensor order (`a + 3b`).
 
 use super::axis::Axis;
+use crate::fem::element::q2_map;
 
 /// Which kind of domain the mesh covers.
 #[derive(Debug, Clone, Copy, PartialEq)]
@@ -193,12 +194,23 @@ impl Mesh {
             .sum()
     }
 
-    /// Element containing `x` and the reference coordinates there, for rectangle meshes (x is
-    /// wrapped into the period when periodic); `None` outside the mesh or for an annulus.
+    /// Element containing `x` and the reference coordinates ξ ∈ [−1, 1]² there (X_e(ξ) = x);
+    /// `None` outside the mesh. On a periodic rectangle x is wrapped into the period.
+    ///
+    /// On an annulus the element is picked from (θ, r) through the axes and the isoparametric map
+    /// is inverted by Newton's method, moving to a neighbour while ξ leaves [−1, 1]². The discrete
+    /// boundary (parabolas through nodes on the circles) differs from the exact circles by
+    /// O(h⁴): a point of the exact annulus that falls just outside the discrete one is returned
+    /// in the nearest boundary element with ξ clamped onto the boundary, so `X_e(ξ)` is then the
+    /// nearest point of the discrete boundary, not `x`.
     pub fn locate(&self, x: [f64; 2]) -> Option<(usize, [f64; 2])> {
-        if self.shape != Shape::Rectangle {
-            return None;
+        match self.shape {
+            Shape::Rectangle => self.locate_rectangle(x),
+            Shape::Annulus => self.locate_annulus(x),
         }
+    }
+
+    fn locate_rectangle(&self, x: [f64; 2]) -> Option<(usize, [f64; 2])> {
         let (x0, x1) = (self.ax.vertices[0], *self.ax.vertices.last()?);
         let (y0, y1) = (self.ay.vertices[0], *self.ay.vertices.last()?);
         let mut px = x[0];
@@ -218,6 +230,63 @@ impl Mesh {
         Some((ey * self.ax.len() + ex, xi))
     }
 
+    fn locate_annulus(&self, x: [f64; 2]) -> Option<(usize, [f64; 2])> {
+        // Relative round-off allowed on |x| against the exact radii, and on ξ against ±1.
+        const ROUND_OFF: f64 = 1e-12;
+        // Neighbour moves before giving up: the (θ, r) guess is off by at most one element
+        // (the discrete edges lie within O(h⁴) of the exact circles and rays).
+        const MAX_MOVES: usize = 4;
+        let (nt, nr) = self.dims();
+        let (r1, r2) = (self.ay.vertices[0], self.ay.vertices[nr]);
+        let r = x[0].hypot(x[1]);
+        if !(r1 * (1.0 - ROUND_OFF)..=r2 * (1.0 + ROUND_OFF)).contains(&r) {
+            return None;
+        }
+        let theta = (-x[1]).atan2(x[0]).rem_euclid(2.0 * std::f64::consts::PI);
+        let (mut et, mut er) = (self.ax.locate(theta), self.ay.locate(r));
+        for _ in 0..=MAX_MOVES {
+            let e = er * nt + et;
+            let xi = invert_q2_map(
+                &self.element_coords[e],
+                x,
+                self.initial_guess(et, er, theta, r),
+            );
+            let out = |v: f64| v.abs() > 1.0 + ROUND_OFF;
+            if !out(xi[0]) && !out(xi[1]) {
+                return Some((e, xi.map(|v| v.clamp(-1.0, 1.0))));
+            }
+            // step toward the violated side: θ wraps around, r stops at the circles
+            if out(xi[0]) {
+                et = if xi[0] < 0.0 {
+                    (et + nt - 1) % nt
+                } else {
+                    (et + 1) % nt
+                };
+            } else if xi[1] < 0.0 && er > 0 {
+                er -= 1;
+            } else if xi[1] > 0.0 && er + 1 < nr {
+                er += 1;
+            } else {
+                // outside the discrete annulus radially, inside the exact one (checked above)
+                return Some((e, xi.map(|v| v.clamp(-1.0, 1.0))));
+            }
+        }
+        None
+    }
+
+    /// ξ of (θ, r) in element (et, er) under the polar map, a guess for the Newton iteration.
+    fn initial_guess(&self, et: usize, er: usize, theta: f64, r: f64) -> [f64; 2] {
+        let lin = |v: &[f64], i: usize, s: f64| 2.0 * (s - v[i]) / (v[i + 1] - v[i]) - 1.0;
+        // θ near 2π seen from the first element (or 0 from the last) is mapped across the seam
+        let (t0, t1) = (self.ax.vertices[et], self.ax.vertices[et + 1]);
+        let period = 2.0 * std::f64::consts::PI;
+        let mid = 0.5 * (t0 + t1);
+        let theta = theta - period * ((theta - mid) / period).round();
+        [
+            lin(&self.ax.vertices, et, theta).clamp(-2.0, 2.0),
+            lin(&self.ay.vertices, er, r).clamp(-2.0, 2.0),
+        ]
+    }
     /// Smallest element edge length in physical space (by corner distances).
     pub fn min_element_size(&self) -> f64 {
         self.element_coords
@@ -232,10 +301,31 @@ impl Mesh {
     }
 }
 
+/// Reference coordinates ξ with X(ξ) = x for the Q2 map of the element nodes `xe`, by Newton's
+/// method from `guess` (ξ may leave [−1, 1]²: the caller decides what that means).
+fn invert_q2_map(xe: &[[f64; 2]; 9], x: [f64; 2], guess: [f64; 2]) -> [f64; 2] {
+    // Newton converges quadratically from the polar guess; the step tolerance is round-off of ξ.
+    const STEP_TOL: f64 = 1e-15;
+    const MAX_ITER: usize = 20;
+    let mut xi = guess;
+    for _ in 0..MAX_ITER {
+        let (p, j, det) = q2_map(xe, xi);
+        let res = [x[0] - p[0], x[1] - p[1]];
+        let d = [
+            (j[1][1] * res[0] - j[0][1] * res[1]) / det,
+            (-j[1][0] * res[0] + j[0][0] * res[1]) / det,
+        ];
+        xi = [xi[0] + d[0], xi[1] + d[1]];
+        if d[0].abs().max(d[1].abs()) < STEP_TOL {
+            break;
+        }
+    }
+    xi
+}
+
 #[cfg(test)]
 mod tests {
     use super::*;
-    use crate::fem::element::q2_map;
     use crate::fem::quadrature::gauss_quad;
 
     fn area(mesh: &Mesh) -> f64 {
@@ -297,5 +387,78 @@ mod tests {
         let e2 = (area(&Mesh::annulus(16, Axis::uniform(1.0, 2.0, 2))) - exact).abs();
         let rate = (e1 / e2).log2();
         assert!(rate > 3.8, "area rate {rate} ({e1}, {e2})");
+    }
+
+    #[test]
+    fn locate_inverts_the_annulus_map_at_random_points() {
+        // Newton on a smooth map from a good guess: the inverse is exact up to round-off.
+        const TOL: f64 = 1e-12;
+        let m = Mesh::annulus(24, Axis::graded(1.0, 4.0, 6, 1.0, 1.0));
+        // deterministic pseudo-random points (LCG) spread over the exact annulus, seam included
+        let mut s: u64 = 12345;
+        let mut next = || {
+            s = s
+                .wrapping_mul(6364136223846793005)
+                .wrapping_add(1442695040888963407);
+            (s >> 11) as f64 / (1u64 << 53) as f64
+        };
+        for _ in 0..2000 {
+            let (r, th) = (
+                1.0 + 3.0 * next(),
+                2.0 * std::f64::consts::PI * (next() - 0.5),
+            );
+            let x = [r * th.cos(), r * th.sin()];
+            let (e, xi) = m.locate(x).expect("a point of the annulus is located");
+            let p = q2_map(&m.element_coords[e], xi).0;
+            let err = (p[0] - x[0]).hypot(p[1] - x[1]);
+            assert!(err < TOL, "{x:?} -> {p:?} in {e}: {err}");
+        }
+        // Points on the exact circles, between nodes, may lie just outside the discrete annulus:
+        // located in the boundary layer, with X_e(ξ) on the discrete boundary within its distance
+        // to the circle. Q2 interpolation of a circle of radius R over Δθ: radial error
+        // ≈ R Δθ⁴/520 (measured 3.62e-5 for R = 4, Δθ = 2π/24, all on the outer circle, where
+        // the parabolas lie inside the circle); bound R Δθ⁴/400.
+        let boundary_error = 4.0 * (2.0 * std::f64::consts::PI / 24.0).powi(4) / 400.0;
+        let (mut clamped, mut worst) = (0, 0.0f64);
+        for (layer, r) in [(0, 1.0), (5, 4.0)] {
+            for k in 0..240 {
+                let th = 2.0 * std::f64::consts::PI * (k as f64 + 0.3) / 240.0;
+                let x = [r * th.cos(), r * th.sin()];
+                let (e, xi) = m.locate(x).unwrap();
+                assert_eq!(e / 24, layer, "radial layer at {x:?}");
+                let p = q2_map(&m.element_coords[e], xi).0;
+                worst = worst.max((p[0] - x[0]).hypot(p[1] - x[1]));
+                clamped += usize::from(xi[1].abs() == 1.0);
+            }
+        }
+        println!("{clamped} of 480 boundary points clamped, at most {worst:.2e} from the image");
+        assert!(worst < boundary_error, "{worst:e} vs {boundary_error:e}");
+        assert!(m.locate([0.999, 0.0]).is_none());
+        assert!(m.locate([0.0, 4.001]).is_none());
+        assert!(m.locate([0.0, 0.0]).is_none());
+    }
+
+    #[test]
+    fn locate_finds_annulus_nodes_in_an_element_holding_them() {
+        // nodes are exact images of ξ ∈ {−1, 0, 1}²: round-off only
+        const TOL: f64 = 1e-12;
+        let m = Mesh::annulus(16, Axis::uniform(1.0, 4.0, 4));
+        for (e, (nodes, coords)) in m.elements.iter().zip(&m.element_coords).enumerate() {
+            for (k, x) in coords.iter().enumerate() {
+                let (f, xi) = m.locate(*x).unwrap();
+                // the node must be node (a, b) of the located element at ξ = (a − 1, b − 1)
+                let ref_xi = |a: usize| a as f64 - 1.0;
+                let hit = (0..9)
+                    .find(|&l| m.elements[f][l] == nodes[k])
+                    .unwrap_or_else(|| {
+                        panic!("node {} of element {e} located in {f} without it", nodes[k])
+                    });
+                assert!((xi[0] - ref_xi(hit % 3)).abs() < TOL, "{e}/{k}: {xi:?}");
+                assert!((xi[1] - ref_xi(hit / 3)).abs() < TOL, "{e}/{k}: {xi:?}");
+                if k == 4 {
+                    assert_eq!(f, e, "an element's centre node is its own");
+                }
+            }
+        }
     }
 }

@@ -146,6 +146,26 @@ pub fn find_contact(
     None
 }
 
+/// Checks gaps between particles and to the two cylinders r = `cylinders.0` (inner) and
+/// r = `cylinders.1` (outer) of a circular Couette cell centred at the origin; a gap below
+/// `min_gap` is a contact ([`Contact::Wall`] for a cylinder, whichever is nearer).
+pub fn find_annulus_contact(
+    x: &[[f64; 2]],
+    radius: &[f64],
+    cylinders: (f64, f64),
+    min_gap: f64,
+) -> Option<Contact> {
+    let (r1, r2) = cylinders;
+    for (i, (c, a)) in x.iter().zip(radius).enumerate() {
+        let r = c[0].hypot(c[1]);
+        let gap = (r - r1).min(r2 - r) - a;
+        if gap < min_gap {
+            return Some(Contact::Wall { i, gap });
+        }
+    }
+    find_contact(x, radius, None, None, min_gap)
+}
+
 #[cfg(test)]
 mod tests {
     use super::*;
@@ -180,5 +200,26 @@ mod tests {
                 gap: 0.5 - 0.45 - 0.1
             })
         );
+    }
+
+    #[test]
+    fn contacts_with_the_cylinders_are_found() {
+        // exact decimal-free geometry: gaps are differences of representable numbers
+        const TOL: f64 = 1e-15;
+        let r = [0.25, 0.25];
+        let cyl = (1.0, 4.0);
+        assert!(find_annulus_contact(&[[0.0, 2.5], [2.5, 0.0]], &r, cyl, 0.0).is_none());
+        match find_annulus_contact(&[[0.0, 2.5], [0.0, -1.125]], &r, cyl, 0.0) {
+            Some(Contact::Wall { i: 1, gap }) => assert!((gap + 0.125).abs() < TOL, "{gap}"),
+            c => panic!("inner cylinder contact expected, got {c:?}"),
+        }
+        match find_annulus_contact(&[[3.0, 0.0], [0.0, 2.5]], &r, cyl, 1.0) {
+            Some(Contact::Wall { i: 0, gap }) => assert!((gap - 0.75).abs() < TOL, "{gap}"),
+            c => panic!("outer cylinder contact expected, got {c:?}"),
+        }
+        assert!(matches!(
+            find_annulus_contact(&[[2.5, 0.0], [2.5, 0.4]], &r, cyl, 0.0),
+            Some(Contact::Overlap { i: 0, j: 1, .. })
+        ));
     }
 }

@@ -3,6 +3,7 @@
 pub mod constitutive;
 pub mod constitutive_projection;
 pub mod constitutive_stress;
+pub mod couette;
 pub mod cutcells;
 pub mod motion;
 pub mod norms;
