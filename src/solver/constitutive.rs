@@ -34,7 +34,14 @@ use crate::fem::quadrature::gauss_quad;
 use crate::fem::sparse::{q1_pattern, SparseMatrix};
 use crate::mesh::Mesh;
 use crate::rheology::{log_conformation_rhs, Giesekus, Sym2, VelocityGradient};
+use crate::solver::ghost::{face_vertices, ghost_face_matrix, ghost_faces, GhostFace};
 use crate::solver::rigid::ElementCut;
+
+/// Ghost-penalty factor γ of the transport: face coefficient γ (a0 h³ + |w| h²), the scale of
+/// the mass and convection entries of the rows it stabilizes (a0 = 3/(2Δt) or 1/Δt, h the face
+/// length, w = u − u_m). 0.1 keeps the leading edge of a moving particle bounded and moves the
+/// fixed-cylinder drag by less than its discretization error (docs/validation.md).
+pub const GHOST_PENALTY: f64 = 1e-3;
 
 /// Errors of the constitutive (stress) solve; each says what to change.
 #[derive(Debug, thiserror::Error)]
@@ -253,6 +260,11 @@ pub struct LogConformationTransport {
     solver: Option<DirectSolver>,
     rule: Vec<([f64; 2], f64)>,
     cuts: Vec<ElementCut>,
+    element_vertices: Vec<[usize; 4]>,
+    /// Faces with a ghost penalty (interior faces of cut elements).
+    ghost: Vec<GhostFace>,
+    /// Ghost-penalty factor (default [`GHOST_PENALTY`]; 0 switches it off).
+    pub ghost_penalty: f64,
     /// Characteristic velocity of the SUPG parameter (default: Case 1, the thesis' choice).
     pub supg: SupgVelocity,
     /// Timings of the last step.
@@ -283,6 +295,9 @@ impl LogConformationTransport {
             solver: None,
             rule: rule.points.into_iter().zip(rule.weights).collect(),
             cuts: vec![ElementCut::Fluid; mesh.n_elements()],
+            element_vertices: mesh.element_vertices.clone(),
+            ghost: Vec::new(),
+            ghost_penalty: GHOST_PENALTY,
             supg: SupgVelocity::Local,
             timings: TransportTimings::default(),
         }
@@ -296,6 +311,18 @@ impl LogConformationTransport {
     pub fn set_cuts(&mut self, mesh: &Mesh, cuts: Vec<ElementCut>) {
         assert_eq!(cuts.len(), self.n_elements, "one ElementCut per element");
         self.fixed = inactive_vertices(mesh, &cuts);
+        let ghost = ghost_faces(mesh, &cuts);
+        if ghost != self.ghost {
+            // the faces couple vertices of neighbouring elements: a new pattern
+            let mut groups: Vec<Vec<usize>> =
+                self.element_vertices.iter().map(|v| v.to_vec()).collect();
+            groups.extend(ghost.iter().map(|f| face_vertices(mesh, f).to_vec()));
+            let mut pb = crate::fem::sparse::PatternBuilder::new(self.n_vertices);
+            groups.iter().for_each(|g| pb.add_group(g));
+            self.matrix = pb.build();
+            self.solver = None;
+            self.ghost = ghost;
+        }
         self.cuts = cuts;
     }
 
@@ -445,6 +472,49 @@ impl LogConformationTransport {
                     self.rhs[1][verts[a]] += f[a].xy;
                     self.rhs[2][verts[a]] += f[a].yy;
                 }
+            }
+        }
+        if self.ghost_penalty > 0.0 {
+            let mut kg = [0.0; 64];
+            let zero = [0.0; 8];
+            for face in &self.ghost {
+                let h = ghost_face_matrix(mesh, face, &mut kg);
+                let speed = [face.first, face.second]
+                    .iter()
+                    .flat_map(|&e| mesh.elements[e].iter())
+                    .map(|&n| {
+                        let u = flow.velocity[n];
+                        let um = flow.mesh_velocity.map_or([0.0; 2], |m| m[n]);
+                        (u[0] - um[0]).hypot(u[1] - um[1])
+                    })
+                    .fold(0.0, f64::max);
+                let verts = face_vertices(mesh, face);
+                // the time-derivative part penalizes the jump of the discrete derivative
+                // (a0 s^{n+1} − history), so the penalty does not damp s at a rate 1/Δt
+                let mass = self.ghost_penalty * h * h * h;
+                for a in 0..8 {
+                    let i = verts[a];
+                    if self.fixed[i].is_some() {
+                        continue;
+                    }
+                    let mut load = Sym2::ZERO;
+                    for b in 0..8 {
+                        let j = verts[b];
+                        let hist = match bdf2 {
+                            Some(prev) => (1.0 / dt) * (2.0 * history.current[j] - 0.5 * prev[j]),
+                            None => (1.0 / dt) * history.current[j],
+                        };
+                        load += (mass * kg[8 * a + b]) * hist;
+                    }
+                    self.rhs[0][i] += load.xx;
+                    self.rhs[1][i] += load.xy;
+                    self.rhs[2][i] += load.yy;
+                }
+                let gamma = self.ghost_penalty * (a0 * h * h * h + speed * h * h);
+                kg.iter_mut().for_each(|v| *v *= gamma);
+                // the constrained (inactive) vertices hold s = 0: eliminating them adds nothing
+                self.matrix
+                    .scatter(&verts, &kg, &zero, &mut self.rhs[0], &self.fixed);
             }
         }
         self.matrix.apply_constraints(&mut self.rhs[0], &self.fixed);

@@ -15,6 +15,7 @@ use crate::fem::sparse::{q1_pattern, SparseMatrix};
 use crate::mesh::Mesh;
 use crate::rheology::{Sym2, VelocityGradient};
 use crate::solver::constitutive::{inactive_vertices, ConstitutiveError};
+use crate::solver::ghost::{face_vertices, ghost_face_matrix, ghost_faces, GhostFace};
 use crate::solver::rigid::ElementCut;
 
 /// Value of a nodal Q1 tensor field at reference point `xi` of element `e`.
@@ -114,7 +115,14 @@ pub struct Q1Projection {
     rhs: Vec<Vec<f64>>,
     rule: Vec<([f64; 2], f64)>,
     cuts: Vec<ElementCut>,
+    element_vertices: Vec<[usize; 4]>,
+    ghost: Vec<GhostFace>,
 }
+
+/// Ghost-penalty factor of the projections: face coefficient γ h³, the scale of the mass
+/// entries (see [`crate::solver::ghost`]). Keeps the values at vertices with a sliver of fluid a
+/// smooth extension, which the temporary ALE map then interpolates at other points.
+pub const PROJECTION_GHOST_PENALTY: f64 = 1e-4;
 
 impl std::fmt::Debug for Q1Projection {
     fn fmt(&self, f: &mut std::fmt::Formatter<'_>) -> std::fmt::Result {
@@ -140,6 +148,8 @@ impl Q1Projection {
             rhs: Vec::new(),
             rule: rule.points.into_iter().zip(rule.weights).collect(),
             cuts: vec![ElementCut::Fluid; mesh.n_elements()],
+            element_vertices: mesh.element_vertices.clone(),
+            ghost: Vec::new(),
         }
     }
 
@@ -151,6 +161,17 @@ impl Q1Projection {
     pub fn set_cuts(&mut self, mesh: &Mesh, cuts: Vec<ElementCut>) {
         assert_eq!(cuts.len(), mesh.n_elements(), "one ElementCut per element");
         self.fixed = inactive_vertices(mesh, &cuts);
+        let ghost = ghost_faces(mesh, &cuts);
+        if ghost != self.ghost {
+            let mut pb = crate::fem::sparse::PatternBuilder::new(self.n_vertices);
+            self.element_vertices.iter().for_each(|g| pb.add_group(g));
+            ghost
+                .iter()
+                .for_each(|f| pb.add_group(&face_vertices(mesh, f)));
+            self.matrix = pb.build();
+            self.solver = None;
+            self.ghost = ghost;
+        }
         self.cuts = cuts;
         self.factored = false;
     }
@@ -189,6 +210,19 @@ impl Q1Projection {
                 &mesh.element_vertices[e],
                 &kflat,
                 &[0.0; 4],
+                &mut scratch,
+                &self.fixed,
+            );
+        }
+        let mut kg = [0.0; 64];
+        for face in &self.ghost {
+            let h = ghost_face_matrix(mesh, face, &mut kg);
+            let gamma = PROJECTION_GHOST_PENALTY * h * h * h;
+            kg.iter_mut().for_each(|v| *v *= gamma);
+            self.matrix.scatter(
+                &face_vertices(mesh, face),
+                &kg,
+                &[0.0; 8],
                 &mut scratch,
                 &self.fixed,
             );

@@ -5,6 +5,7 @@ pub mod constitutive_projection;
 pub mod constitutive_stress;
 pub mod couette;
 pub mod cutcells;
+pub mod ghost;
 pub mod motion;
 pub mod norms;
 pub mod polymer_terms;
