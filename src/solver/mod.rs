@@ -1,5 +1,6 @@
 //! Weak forms and solvers.
 
+pub mod ale;
 pub mod constitutive;
 pub mod constitutive_projection;
 pub mod constitutive_stress;
@@ -7,6 +8,7 @@ pub mod couette;
 pub mod cutcells;
 pub mod ghost;
 pub mod motion;
+pub mod moving;
 pub mod norms;
 pub mod polymer_terms;
 pub mod rigid;

@@ -26,7 +26,7 @@ use crate::solver::constitutive_projection::{
     fluid_mean, sym_at, velocity_gradient_at, Q1Projection,
 };
 use crate::solver::constitutive_stress::{Coupling, CouplingStress};
-use crate::solver::rigid::{ElementCut, Particle};
+use crate::solver::rigid::{ElementCut, Particle, WeakForm};
 use crate::solver::stokes::{Stokes, StokesParams};
 
 /// Steady-state tolerance of thesis §2.5.1: nodal changes of u and s below 1e-6 per step.
@@ -56,6 +56,9 @@ pub struct ViscoelasticParams {
     pub coupled_g: bool,
     /// Steady-state tolerance on the nodal change per step.
     pub steady_tol: f64,
+    /// Form of the weak rigid-body condition; [`WeakForm::Thesis`] (non-symmetric, coercive for
+    /// any κ however small the cut) needs an LU flow solver, chosen automatically.
+    pub rigid_form: WeakForm,
 }
 
 impl ViscoelasticParams {
@@ -72,6 +75,7 @@ impl ViscoelasticParams {
             theta: eta_p,
             coupled_g: false,
             steady_tol: STEADY_TOL,
+            rigid_form: WeakForm::Symmetric,
         }
     }
 
@@ -227,8 +231,10 @@ pub struct ViscoelasticFlow {
     rigid: Vec<[f64; 3]>,
 }
 
-/// Q1 interpolation of a vertex field at a point: the element's vertices and their weights.
-pub type Q1Weights = ([usize; 4], [f64; 4]);
+/// Interpolation of a vertex field at a point: up to nine vertices and their weights (the four
+/// vertices of the element with bilinear weights, or a 3×3 vertex stencil with biquadratic ones;
+/// unused entries have weight 0).
+pub type StencilWeights = ([usize; 9], [f64; 9]);
 
 /// How the history moves onto the current configuration (temporary ALE map, thesis §5.3.3):
 /// for every Q1 vertex x the interpolation at its pre-images xⁿ = Φₙ⁻¹(x) and
@@ -236,9 +242,9 @@ pub type Q1Weights = ([usize; 4], [f64; 4]);
 #[derive(Debug, Clone, Copy)]
 pub struct HistoryMap<'a> {
     /// Interpolation of the fields at tⁿ (sⁿ, Gⁿ) at each vertex's pre-image.
-    pub at_n: &'a [Q1Weights],
+    pub at_n: &'a [StencilWeights],
     /// Interpolation of s^{n−1}; `None` makes the coming step first order (Euler, Eq. 5.53).
-    pub at_n_minus_1: Option<&'a [Q1Weights]>,
+    pub at_n_minus_1: Option<&'a [StencilWeights]>,
     /// Mesh velocity u_m^{n+1} at the Q2 nodes.
     pub mesh_velocity: &'a [[f64; 2]],
 }
@@ -261,13 +267,19 @@ impl std::ops::Mul<f64> for Grad4 {
     }
 }
 
-fn interpolate<T>(field: &[T], at: &[Q1Weights]) -> Vec<T>
+fn interpolate<T>(field: &[T], at: &[StencilWeights]) -> Vec<T>
 where
     T: Copy + std::ops::Add<Output = T> + std::ops::Mul<f64, Output = T>,
 {
     at.iter()
         .map(|(v, w)| {
-            field[v[0]] * w[0] + field[v[1]] * w[1] + field[v[2]] * w[2] + field[v[3]] * w[3]
+            let mut acc = field[v[0]] * w[0];
+            for k in 1..9 {
+                if w[k] != 0.0 {
+                    acc = acc + field[v[k]] * w[k];
+                }
+            }
+            acc
         })
         .collect()
 }
@@ -311,11 +323,12 @@ impl ViscoelasticFlow {
         cuts: Vec<ElementCut>,
     ) -> Result<Self, ViscoelasticError> {
         let fluid = params.fluid()?;
-        let solver = match params.coupling {
-            Coupling::Explicit => SolverKind::Lblt,
-            Coupling::SemiImplicit => SolverKind::Lu,
+        let solver = match (params.coupling, params.rigid_form) {
+            (Coupling::Explicit, WeakForm::Symmetric) => SolverKind::Lblt,
+            _ => SolverKind::Lu,
         };
         let mut sp = StokesParams::new(params.eta_s, params.theta, solver);
+        sp.rigid_form = params.rigid_form;
         sp.coupled_g = params.coupled_g;
         let (nv, nn) = (mesh.n_vertices(), mesh.n_nodes());
         let n_particles = particles.len();
@@ -531,10 +544,19 @@ impl ViscoelasticFlow {
     /// # Errors
     /// [`ViscoelasticError::Flow`] or [`ViscoelasticError::Stress`] if a solve fails.
     pub fn start(&mut self, force: &dyn Fn([f64; 2]) -> [f64; 2]) -> Result<(), ViscoelasticError> {
-        let mut sol = self
-            .stokes
-            .solve(force)
-            .map_err(|source| ViscoelasticError::Flow { step: 0, source })?;
+        // With decoupled DEVSS-G the flow matrix carries θ∇u balanced by θGⁿ on the right-hand
+        // side; at t = 0 there is no Gⁿ yet, and θ∇u alone would act as a spurious non-symmetric
+        // viscosity (free particles rotated 30 % off in the Couette cell). The fluid at rest with
+        // τ = 0 is Newtonian with η_s: solve it without the DEVSS-G term (one extra
+        // factorization per run), then G⁰ is projected from u⁰ and consistent.
+        let decoupled_devss = !self.stokes.params.coupled_g && self.stokes.params.theta > 0.0;
+        let theta = self.stokes.params.theta;
+        if decoupled_devss && self.params.eta_s > 0.0 {
+            self.stokes.params.theta = 0.0;
+        }
+        let sol = self.stokes.solve(force);
+        self.stokes.params.theta = theta;
+        let mut sol = sol.map_err(|source| ViscoelasticError::Flow { step: 0, source })?;
         self.body_force = self.control_flow_rate(&mut sol.u, &mut sol.p, &mut sol.reaction);
         self.reaction = sol.reaction;
         self.rigid = sol.rigid;

@@ -1,0 +1,419 @@
+//! Rigid particles moving freely (or with prescribed velocities) in a viscoelastic fluid on the
+//! fixed mesh: the full time step of thesis §5.3.4,
+//!
+//! predict (Eqs. 5.45–5.47) → ale_map (temporary ALE, §5.3.3: sⁿ, s^{n−1}, Gⁿ carried onto the
+//! predicted configuration, mesh velocity of Eq. 5.44) → classify (cut cells at the predicted
+//! positions) → solve_flow (u, p, U_i, ω_i with force- and torque-free particles imposed weakly,
+//! Eq. 5.48) → solve_stress (SUPG/BDF2 with u − u_m, Eq. 5.52) → correct (trapezoidal rule,
+//! Eqs. 5.54–5.56) → observe (contact, divergence, steady rotation of §5.7.2).
+//!
+//! Two confinements: [`ShearDomain`] (walls at y = ±H/2 sliding at ±U_w/2, periodic in x) and
+//! the circular Couette flow of [`crate::solver::couette`].
+
+use std::time::Instant;
+
+use crate::mesh::{Mesh, Side};
+use crate::particles::{
+    correct, find_annulus_contact, find_contact, predict, Contact, RigidState, CONTACT_OVERLAP,
+};
+use crate::solver::ale::{AleError, Remap, RigidMove, TemporaryAle};
+use crate::solver::couette::CouetteGeometry;
+use crate::solver::cutcells::{compute_cuts, CutError};
+use crate::solver::rigid::{Motion, Particle};
+use crate::solver::viscoelastic::{
+    HistoryMap, StepReport, ViscoelasticError, ViscoelasticFlow, ViscoelasticParams,
+};
+use crate::xfem::CutOptions;
+
+/// Steady rotation of §5.7.2: |ω*(tⁿ⁺¹) − ω*(tⁿ)| below this for every particle.
+pub const STEADY_ROTATION_TOL: f64 = 1e-6;
+
+/// Where the particles move: walls, periodicity, contact and the characteristic shear rate.
+pub trait Domain: Send + Sync {
+    /// Period in x of a periodic rectangle (`None` otherwise; the annulus needs none).
+    fn period(&self) -> Option<f64>;
+    /// Sets the wall velocities (and pins the pressure where the flow is enclosed).
+    fn apply_walls(&self, flow: &mut ViscoelasticFlow);
+    /// A particle–particle or particle–wall gap below `min_gap`.
+    fn contact(&self, x: &[[f64; 2]], radius: &[f64], min_gap: f64) -> Option<Contact>;
+    /// Characteristic shear rate γ̇ (t* = tγ̇, ω* = ω/γ̇).
+    fn shear_rate(&self) -> f64;
+    /// The point moved into the period (identity without one).
+    fn wrap(&self, x: [f64; 2]) -> [f64; 2] {
+        match self.period() {
+            Some(l) => [x[0] - l * (x[0] / l).round(), x[1]],
+            None => x,
+        }
+    }
+}
+
+/// Confined shear flow (thesis §5.6.1): walls at y = ±H/2 moving at ±U_w/2, periodic in x with
+/// period L centred on x = 0.
+#[derive(Debug, Clone, Copy)]
+pub struct ShearDomain {
+    /// Channel height H.
+    pub h: f64,
+    /// Period L.
+    pub l: f64,
+    /// Relative wall speed U_w (γ̇ = U_w/H).
+    pub wall_speed: f64,
+}
+
+impl Domain for ShearDomain {
+    fn period(&self) -> Option<f64> {
+        Some(self.l)
+    }
+
+    fn apply_walls(&self, flow: &mut ViscoelasticFlow) {
+        let uw = 0.5 * self.wall_speed;
+        flow.set_velocity(Side::Bottom, |_| [-uw, 0.0]);
+        flow.set_velocity(Side::Top, |_| [uw, 0.0]);
+        flow.pin_pressure();
+    }
+
+    fn contact(&self, x: &[[f64; 2]], radius: &[f64], min_gap: f64) -> Option<Contact> {
+        let walls = Some((-0.5 * self.h, 0.5 * self.h));
+        find_contact(x, radius, walls, Some(self.l), min_gap)
+    }
+
+    fn shear_rate(&self) -> f64 {
+        self.wall_speed / self.h
+    }
+}
+
+/// Circular Couette flow (thesis §3.5): inner cylinder rotating at ω̄, outer at rest, no period.
+impl Domain for CouetteGeometry {
+    fn period(&self) -> Option<f64> {
+        None
+    }
+
+    fn apply_walls(&self, flow: &mut ViscoelasticFlow) {
+        let g = *self;
+        flow.set_velocity(Side::Bottom, move |x| g.wall_velocity(Side::Bottom, x));
+        flow.set_velocity(Side::Top, move |x| g.wall_velocity(Side::Top, x));
+        flow.pin_pressure();
+    }
+
+    fn contact(&self, x: &[[f64; 2]], radius: &[f64], min_gap: f64) -> Option<Contact> {
+        find_annulus_contact(x, radius, (self.r1(), self.r2()), min_gap)
+    }
+
+    fn shear_rate(&self) -> f64 {
+        CouetteGeometry::shear_rate(self)
+    }
+}
+
+/// Why a run stopped.
+#[derive(Debug, Clone, PartialEq)]
+pub enum MovingEnd {
+    /// End time reached.
+    EndTime,
+    /// Every particle rotates steadily (§5.7.2) and the caller asked to stop there.
+    Steady,
+    /// The step callback asked to stop.
+    Stopped,
+    /// Particles touched each other or a wall.
+    Contact(Contact),
+}
+
+/// Errors of a moving-particle run; the sweep engine records them as divergence.
+#[derive(Debug, thiserror::Error)]
+pub enum MovingError {
+    /// Cut-cell geometry failed.
+    #[error("step {step}: {source}")]
+    Cut {
+        /// Step.
+        step: usize,
+        /// Cause.
+        source: CutError,
+    },
+    /// The temporary ALE map failed.
+    #[error("step {step}: temporary ALE map: {source}")]
+    Ale {
+        /// Step.
+        step: usize,
+        /// Cause.
+        source: AleError,
+    },
+    /// A flow or stress solve failed.
+    #[error(transparent)]
+    Flow(#[from] ViscoelasticError),
+    /// A particle velocity is not finite.
+    #[error("step {step}: non-finite particle velocity")]
+    NonFinite {
+        /// Step.
+        step: usize,
+    },
+    /// Inconsistent set-up.
+    #[error("{0}")]
+    Setup(String),
+}
+
+/// Wall-clock seconds of the particle-specific phases of one step (the flow and stress phases
+/// are in [`StepReport::timings`]).
+#[derive(Debug, Clone, Copy, Default)]
+pub struct MovingTimings {
+    /// Mesh displacement, point location and mapping of the history.
+    pub ale: f64,
+    /// Level set and cut-cell quadrature at the predicted positions.
+    pub classify: f64,
+    /// Whole step.
+    pub total: f64,
+}
+
+/// What one step did.
+#[derive(Debug, Clone)]
+pub struct MovingReport {
+    /// The fluid step.
+    pub flow: StepReport,
+    /// max over particles of |ω*(tⁿ⁺¹) − ω*(tⁿ)|.
+    pub d_omega_star: f64,
+    /// All particles rotate steadily.
+    pub steady: bool,
+    /// Timings of the particle phases.
+    pub timings: MovingTimings,
+}
+
+/// A viscoelastic flow with moving rigid particles.
+pub struct MovingParticles<D: Domain> {
+    domain: D,
+    flow: ViscoelasticFlow,
+    ale: TemporaryAle,
+    radius: Vec<f64>,
+    motion: Vec<Motion>,
+    cut: CutOptions,
+    /// Xⁿ, Uⁿ, ωⁿ.
+    cur: RigidState,
+    /// Xⁿ⁻¹ (none before the first step).
+    prev: Option<RigidState>,
+    /// X̂ⁿ: the (predicted) positions at which the current fields were computed.
+    fields_at: Vec<[f64; 2]>,
+    dt: f64,
+}
+
+impl<D: Domain> MovingParticles<D> {
+    /// Places the particles at `x0` in the fluid at rest and solves the initial flow (τ = 0),
+    /// which gives the initial particle velocities.
+    ///
+    /// # Errors
+    /// [`MovingError::Setup`] for mismatched lengths, [`MovingError::Cut`] or
+    /// [`MovingError::Flow`] if the geometry or the first solve fails.
+    pub fn new(
+        mesh: Mesh,
+        params: ViscoelasticParams,
+        domain: D,
+        x0: Vec<[f64; 2]>,
+        radius: Vec<f64>,
+        motion: Vec<Motion>,
+        cut: CutOptions,
+    ) -> Result<Self, MovingError> {
+        if x0.len() != radius.len() || x0.len() != motion.len() {
+            return Err(MovingError::Setup(format!(
+                "{} positions, {} radii and {} motions: one of each per particle",
+                x0.len(),
+                radius.len(),
+                motion.len()
+            )));
+        }
+        let particles = make_particles(&domain, &x0, &radius, &motion);
+        let cuts = compute_cuts(&mesh, &particles, domain.period(), cut)
+            .map_err(|source| MovingError::Cut { step: 0, source })?;
+        let ale = TemporaryAle::new(&mesh);
+        let mut flow = ViscoelasticFlow::with_particles(mesh, params, particles, cuts)?;
+        domain.apply_walls(&mut flow);
+        flow.start(&|_| [0.0, 0.0])?;
+        let mut cur = RigidState::at_rest(x0.clone());
+        set_velocities(&mut cur, flow.rigid_velocities());
+        if !finite(&cur) {
+            return Err(MovingError::NonFinite { step: 0 });
+        }
+        Ok(Self {
+            domain,
+            flow,
+            ale,
+            radius,
+            motion,
+            cut,
+            cur,
+            prev: None,
+            fields_at: x0,
+            dt: params.dt,
+        })
+    }
+
+    /// One time step. `Ok(None)` when the particles would touch (the step is not taken).
+    ///
+    /// # Errors
+    /// [`MovingError`] when the geometry, the ALE map or a solve fails, or velocities blow up.
+    pub fn step(&mut self) -> Result<Result<MovingReport, Contact>, MovingError> {
+        let t_step = Instant::now();
+        let step = self.flow.history().steps() + 1;
+        let min_gap = -CONTACT_OVERLAP * self.radius.iter().copied().fold(f64::INFINITY, f64::min);
+        // 1. predict
+        let x_pred = predict(self.prev.as_ref(), &self.cur);
+        if let Some(c) = self.domain.contact(&x_pred, &self.radius, min_gap) {
+            return Ok(Err(c));
+        }
+        // 2. ale_map: the mesh follows the particles from X̂ⁿ to X̂ⁿ⁺¹
+        let t0 = Instant::now();
+        let moves: Vec<RigidMove> = self
+            .fields_at
+            .iter()
+            .zip(&x_pred)
+            .zip(&self.radius)
+            .map(|((from, to), &radius)| RigidMove {
+                center: self.domain.wrap(*from),
+                radius,
+                displacement: [to[0] - from[0], to[1] - from[1]],
+            })
+            .collect();
+        let first_order = self.flow.history().previous.is_none();
+        let map = self
+            .ale
+            .advance(
+                self.flow.mesh(),
+                &moves,
+                self.domain.period(),
+                self.dt,
+                first_order,
+            )
+            .map_err(|source| MovingError::Ale { step, source })?;
+        let ale = t0.elapsed().as_secs_f64();
+        // 3. classify at the predicted configuration
+        let t1 = Instant::now();
+        let particles = make_particles(&self.domain, &x_pred, &self.radius, &self.motion);
+        let cuts = compute_cuts(self.flow.mesh(), &particles, self.domain.period(), self.cut)
+            .map_err(|source| MovingError::Cut { step, source })?;
+        let classify = t1.elapsed().as_secs_f64();
+        let t2 = Instant::now();
+        self.flow.move_particles(
+            particles,
+            cuts,
+            HistoryMap {
+                at_n: &map.at_n,
+                at_n_minus_1: map.at_n_minus_1.as_deref(),
+                mesh_velocity: &map.mesh_velocity,
+            },
+        )?;
+        let ale = ale + t2.elapsed().as_secs_f64();
+        // 4.–5. solve_flow, solve_stress
+        let flow = self.flow.step(&|_| [0.0, 0.0])?;
+        // 6. correct
+        let rigid = self.flow.rigid_velocities();
+        let u: Vec<[f64; 2]> = rigid.iter().map(|r| [r[0], r[1]]).collect();
+        let omega: Vec<f64> = rigid.iter().map(|r| r[2]).collect();
+        let next = correct(&self.cur, &u, &omega, self.dt, self.prev.is_none());
+        if !finite(&next) {
+            return Err(MovingError::NonFinite { step });
+        }
+        // γ̇ = 0 (a body pushed through fluid at rest): ω in the units of the problem
+        let rate = Some(self.domain.shear_rate())
+            .filter(|r| *r > 0.0)
+            .unwrap_or(1.0);
+        let d_omega_star = next
+            .omega
+            .iter()
+            .zip(&self.cur.omega)
+            .map(|(a, b)| (a - b).abs() / rate)
+            .fold(0.0, f64::max);
+        self.prev = Some(std::mem::replace(&mut self.cur, next));
+        self.fields_at = x_pred;
+        Ok(Ok(MovingReport {
+            flow,
+            d_omega_star,
+            steady: d_omega_star < STEADY_ROTATION_TOL,
+            timings: MovingTimings {
+                ale,
+                classify,
+                total: t_step.elapsed().as_secs_f64(),
+            },
+        }))
+    }
+
+    /// Steps until `t_end`, a contact, the steady rotation (if `stop_when_steady`) or until
+    /// `observe` returns false; `observe` sees every step.
+    ///
+    /// # Errors
+    /// As [`step`](Self::step).
+    pub fn run(
+        &mut self,
+        t_end: f64,
+        stop_when_steady: bool,
+        mut observe: impl FnMut(&Self, &MovingReport) -> bool,
+    ) -> Result<MovingEnd, MovingError> {
+        let n_steps = (t_end / self.dt - 1e-9).ceil() as usize;
+        let min_gap = -CONTACT_OVERLAP * self.radius.iter().copied().fold(f64::INFINITY, f64::min);
+        while self.flow.history().steps() < n_steps {
+            let rep = match self.step()? {
+                Ok(rep) => rep,
+                Err(c) => return Ok(MovingEnd::Contact(c)),
+            };
+            if !observe(self, &rep) {
+                return Ok(MovingEnd::Stopped);
+            }
+            if let Some(c) = self.domain.contact(&self.cur.x, &self.radius, min_gap) {
+                return Ok(MovingEnd::Contact(c));
+            }
+            if stop_when_steady && rep.steady {
+                return Ok(MovingEnd::Steady);
+            }
+        }
+        Ok(MovingEnd::EndTime)
+    }
+
+    /// Positions, orientations and velocities at the current time level.
+    pub fn state(&self) -> &RigidState {
+        &self.cur
+    }
+
+    /// Chooses how the history is interpolated at the ALE pre-images (default
+    /// [`Remap::Quadratic`]).
+    pub fn set_remap(&mut self, remap: Remap) {
+        self.ale.remap = remap;
+    }
+
+    /// The fluid.
+    pub fn flow(&self) -> &ViscoelasticFlow {
+        &self.flow
+    }
+
+    /// The confinement.
+    pub fn domain(&self) -> &D {
+        &self.domain
+    }
+
+    /// Current time.
+    pub fn time(&self) -> f64 {
+        self.flow.time()
+    }
+}
+
+fn make_particles<D: Domain>(
+    domain: &D,
+    x: &[[f64; 2]],
+    radius: &[f64],
+    motion: &[Motion],
+) -> Vec<Particle> {
+    x.iter()
+        .zip(radius)
+        .zip(motion)
+        .map(|((c, &radius), &motion)| Particle {
+            center: domain.wrap(*c),
+            radius,
+            motion,
+        })
+        .collect()
+}
+
+fn set_velocities(state: &mut RigidState, rigid: &[[f64; 3]]) {
+    state.u = rigid.iter().map(|r| [r[0], r[1]]).collect();
+    state.omega = rigid.iter().map(|r| r[2]).collect();
+}
+
+fn finite(s: &RigidState) -> bool {
+    s.x.iter()
+        .chain(&s.u)
+        .flatten()
+        .chain(&s.omega)
+        .all(|v| v.is_finite())
+}
