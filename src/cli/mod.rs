@@ -45,9 +45,11 @@ pub enum Command {
         /// Weissenberg number (cylinder study).
         #[arg(long, default_value_t = 0.0)]
         wi: f64,
-        /// Element sizes near the cylinder, in units of R (cylinder study; comma-separated).
-        #[arg(long, value_delimiter = ',', default_values_t = vec![0.1, 0.05, 0.03])]
-        h: Vec<f64>,
+        /// Element sizes near the cylinder, in units of R (cylinder study; comma-separated,
+        /// coarse to fine; the verdict is the finest one's). Default: 0.1,0.05,0.03 for Wi = 0;
+        /// for Wi > 0 one mesh that runs in a minute or two (0.1 up to Wi = 0.45, 0.07 above).
+        #[arg(long, alias = "mesh", value_delimiter = ',')]
+        h: Option<Vec<f64>>,
         /// Directory for CSV output (trajectories).
         #[arg(long, default_value = "results/validate")]
         out: std::path::PathBuf,
@@ -65,7 +67,7 @@ pub enum Command {
     Bench {
         /// Which benchmark.
         name: BenchName,
-        /// Mesh as NXxNY (elements), e.g. 200x50.
+        /// Mesh as NXxNY (elements), e.g. 200x50 (moving benchmark: comma-separated list).
         #[arg(long, default_value = "200x50")]
         mesh: String,
         /// Linear solver.
@@ -77,6 +79,9 @@ pub enum Command {
         /// Repeated solves after the first (median reported).
         #[arg(long, default_value_t = 5)]
         repeats: usize,
+        /// Number of particles (moving benchmark; comma-separated for several runs).
+        #[arg(long, value_delimiter = ',', default_values_t = vec![3])]
+        particles: Vec<usize>,
         /// Element sizes near the cylinder in units of R (drag benchmark; comma-separated).
         #[arg(long, value_delimiter = ',', default_values_t = vec![0.2, 0.1, 0.05, 0.03])]
         h: Vec<f64>,
@@ -111,6 +116,9 @@ pub enum BenchName {
     /// The unfitted Stokes drag problem (confined cylinder, Wi = 0): K, its error and the time of
     /// each phase, for element sizes `--h`.
     Drag,
+    /// One viscoelastic time step with moving particles in confined shear flow (thesis §5.7
+    /// set-up) on `--mesh` with `--particles`: every phase, medians over `--repeats` steps.
+    Moving,
 }
 
 /// Linear solver choice.
@@ -167,7 +175,7 @@ pub fn run(cli: Cli) -> anyhow::Result<ExitCode> {
                 study,
                 levels,
                 wi,
-                &h,
+                &h.unwrap_or_else(|| default_cylinder_meshes(wi)),
                 &out,
                 dt,
                 t_max,
@@ -180,9 +188,21 @@ pub fn run(cli: Cli) -> anyhow::Result<ExitCode> {
             solver,
             with_g,
             repeats,
+            particles,
             h,
             cut_level,
         } => match name {
+            BenchName::Moving => {
+                println!("{}", crate::bench::MovingBench::HEADER);
+                for m in mesh.split(',') {
+                    let (nx, ny) = parse_mesh(m)?;
+                    for &n in &particles {
+                        let b = crate::bench::moving(nx, ny, n, 3, repeats.max(1))?;
+                        println!("{}", b.to_row());
+                    }
+                }
+                Ok(ExitCode::SUCCESS)
+            }
             BenchName::Stokes => {
                 let (nx, ny) = parse_mesh(&mesh)?;
                 let b = crate::bench::stokes(nx, ny, solver.into(), with_g, repeats)?;
@@ -358,7 +378,22 @@ fn validate_particles(
     })
 }
 
+/// Element sizes of `xpflow validate cylinder` without `--h`: the Newtonian study's sequence, or
+/// for Wi > 0 the coarsest mesh that meets the tolerance in about a minute (measured:
+/// Wi = 0.3 h = 0.1 +6.7e-4 of the 0.1 %; Wi = 0.6 h = 0.1 +2.3e-3 misses the 0.2 %, h = 0.07
+/// see docs/validation.md).
+fn default_cylinder_meshes(wi: f64) -> Vec<f64> {
+    if wi == 0.0 {
+        vec![0.1, 0.05, 0.03]
+    } else if wi <= 0.45 {
+        vec![0.1]
+    } else {
+        vec![0.07]
+    }
+}
+
 /// Oldroyd-B confined cylinder: K per mesh, the K(t) history as CSV, a `K = <value>` line.
+/// The verdict is that of the finest (last) mesh; coarser rows show the convergence.
 fn validate_cylinder_viscoelastic(
     wi: f64,
     hs: &[f64],
@@ -379,9 +414,11 @@ fn validate_cylinder_viscoelastic(
     for &h in hs {
         let r = cylinder_drag_viscoelastic(wi, h, dt, t_max, cut)?;
         let rel = refv.map(|(_, k, _)| (r.k - k) / k);
-        if let (Some(rel), Some((_, _, tol))) = (rel, refv) {
-            ok &= rel.abs() < *tol && r.steady;
-        }
+        ok = match (rel, refv) {
+            (Some(rel), Some((_, _, tol))) => rel.abs() < *tol && r.steady,
+            // no published value at this Wi: the run must reach the steady criterion
+            _ => r.steady,
+        };
         println!(
             "| {h} | {} | {} | {} | {:.4} | {} | {:.3} |",
             r.dofs,
