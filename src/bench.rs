@@ -125,3 +125,156 @@ impl std::fmt::Display for StokesBench {
         }
     }
 }
+
+/// Result of the moving-particle benchmark: medians over the timed steps.
+#[derive(Debug, Clone)]
+pub struct MovingBench {
+    /// Mesh label.
+    pub mesh: String,
+    /// Number of particles.
+    pub particles: usize,
+    /// (flow unknowns, stress unknowns per component).
+    pub unknowns: (usize, usize),
+    /// Steps timed (after the warm-up steps).
+    pub steps: usize,
+    /// Median seconds: temporary ALE map.
+    pub ale: f64,
+    /// Median seconds: level set and cut-cell quadrature.
+    pub classify: f64,
+    /// Median seconds: flow assembly.
+    pub flow_assembly: f64,
+    /// Median seconds: flow symbolic analysis (pattern changes only).
+    pub flow_symbolic: f64,
+    /// Median seconds: flow numeric factorization.
+    pub flow_factor: f64,
+    /// Median seconds: flow solve.
+    pub flow_solve: f64,
+    /// Median seconds: projection of the velocity gradient.
+    pub gradient_projection: f64,
+    /// Median seconds: log-conformation assembly.
+    pub transport_assembly: f64,
+    /// Median seconds: log-conformation factorization.
+    pub transport_factor: f64,
+    /// Median seconds: log-conformation solves (three components).
+    pub transport_solve: f64,
+    /// Median seconds: projection of c = exp(s).
+    pub conformation_projection: f64,
+    /// Median seconds: the whole step.
+    pub total: f64,
+    /// Flow-matrix pattern rebuilds over the run (warm-up included).
+    pub pattern_rebuilds: usize,
+    /// Steps of the run (warm-up included).
+    pub run_steps: usize,
+    /// Peak resident memory of the process (MB), if readable.
+    pub peak_rss_mb: Option<f64>,
+}
+
+/// One viscoelastic time step with `n` free particles in confined shear flow (thesis §5.7:
+/// H = 1, L = 4, a = 0.1, Giesekus Wi = 1, α = 0.01, β = 0.1, Δt = 0.01) on an `nx × ny` mesh:
+/// particles on the line through the origin of slope −0.2 spaced 0.5 apart (the three-particle
+/// start of §5.7.2 for n = 3), `warm_up` untimed steps, then medians over `steps` steps.
+///
+/// # Errors
+/// [`crate::solver::moving::MovingError`] if a step fails or particles touch.
+pub fn moving(
+    nx: usize,
+    ny: usize,
+    n: usize,
+    warm_up: usize,
+    steps: usize,
+) -> Result<MovingBench, crate::solver::moving::MovingError> {
+    use crate::solver::moving::{MovingError, MovingParticles, ShearDomain};
+    use crate::solver::rigid::Motion;
+    use crate::solver::viscoelastic::ViscoelasticParams;
+    let (h, l, a) = (1.0, 4.0, 0.1);
+    let mesh = Mesh::rectangle(
+        Axis::uniform(-0.5 * l, 0.5 * l, nx),
+        Axis::uniform(-0.5 * h, 0.5 * h, ny),
+        true,
+    );
+    let spacing = if n <= 7 { 0.5 } else { l / n as f64 };
+    let x0: Vec<[f64; 2]> = (0..n)
+        .map(|i| {
+            let s = (i as f64 - 0.5 * (n as f64 - 1.0)) * spacing;
+            [s, -0.2 * s]
+        })
+        .collect();
+    let domain = ShearDomain {
+        h,
+        l,
+        wall_speed: 1.0,
+    };
+    let params = ViscoelasticParams::new(0.1, 0.9, 1.0, 0.01, 0.01, 1.0);
+    let mut sim = MovingParticles::new(
+        mesh,
+        params,
+        domain,
+        x0,
+        vec![a; n],
+        vec![Motion::Free; n],
+        crate::xfem::CutOptions::default(),
+    )?;
+    let mut reports = Vec::new();
+    for k in 0..warm_up + steps {
+        match sim.step()? {
+            Ok(r) if k >= warm_up => reports.push(r),
+            Ok(_) => {}
+            Err(c) => return Err(MovingError::Setup(format!("bench: particles touched: {c}"))),
+        }
+    }
+    let med = |f: &dyn Fn(&crate::solver::moving::MovingReport) -> f64| {
+        median(reports.iter().map(f).collect())
+    };
+    Ok(MovingBench {
+        mesh: format!("{nx}x{ny}"),
+        particles: n,
+        unknowns: sim.flow().sizes(),
+        steps,
+        ale: med(&|r| r.timings.ale),
+        classify: med(&|r| r.timings.classify),
+        flow_assembly: med(&|r| r.flow.timings.flow_assembly),
+        flow_symbolic: med(&|r| r.flow.timings.flow_symbolic),
+        flow_factor: med(&|r| r.flow.timings.flow_factor),
+        flow_solve: med(&|r| r.flow.timings.flow_solve),
+        gradient_projection: med(&|r| r.flow.timings.gradient_projection),
+        transport_assembly: med(&|r| r.flow.timings.transport.assembly),
+        transport_factor: med(&|r| r.flow.timings.transport.factor),
+        transport_solve: med(&|r| r.flow.timings.transport.solve),
+        conformation_projection: med(&|r| r.flow.timings.conformation_projection),
+        total: med(&|r| r.timings.total),
+        pattern_rebuilds: sim.flow().pattern_rebuilds(),
+        run_steps: warm_up + steps,
+        peak_rss_mb: peak_rss_mb(),
+    })
+}
+
+impl MovingBench {
+    /// Markdown table header matching [`to_row`](Self::to_row).
+    pub const HEADER: &'static str = "| mesh | particles | flow / stress unknowns | ALE | classify | flow asm | flow sym | flow factor | flow solve | G proj | s asm | s factor | s solve | c proj | step | pattern rebuilds | peak RSS |\n|---|---|---|---|---|---|---|---|---|---|---|---|---|---|---|---|---|";
+
+    /// One markdown table row (seconds).
+    pub fn to_row(&self) -> String {
+        format!(
+            "| {} | {} | {} / {} | {:.4} | {:.4} | {:.4} | {:.4} | {:.4} | {:.4} | {:.4} | {:.4} | {:.4} | {:.4} | {:.4} | **{:.3}** | {} of {} | {} |",
+            self.mesh,
+            self.particles,
+            self.unknowns.0,
+            self.unknowns.1,
+            self.ale,
+            self.classify,
+            self.flow_assembly,
+            self.flow_symbolic,
+            self.flow_factor,
+            self.flow_solve,
+            self.gradient_projection,
+            self.transport_assembly,
+            self.transport_factor,
+            self.transport_solve,
+            self.conformation_projection,
+            self.total,
+            self.pattern_rebuilds,
+            self.run_steps,
+            self.peak_rss_mb.map_or("—".into(), |m| format!("{m:.0} MB")),
+        )
+    }
+}
