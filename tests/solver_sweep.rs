@@ -1,12 +1,13 @@
 //! The solver-backed runner end to end through the sweep engine: a tiny real Stokes sweep writes
-//! samples, a decided-or-timeout outcome and HDF5 snapshots; unsupported cases are refused.
+//! samples, a decided-or-timeout outcome and HDF5 snapshots; viscoelastic confined-shear and
+//! Couette cases run through the moving-particle step; cases with nothing to simulate are refused.
 
 use std::path::PathBuf;
 
 use xpflow::config::SweepSpec;
 use xpflow::store::Store;
 use xpflow::sweep::solver_runner::SolverRunner;
-use xpflow::sweep::{expand, run_sweep, CaseRunner, SweepOptions};
+use xpflow::sweep::{expand, run_sweep, SweepOptions};
 
 fn scratch(name: &str) -> PathBuf {
     let d = std::env::temp_dir().join(format!("xpflow-test-{name}-{}", std::process::id()));
@@ -92,15 +93,86 @@ particles.layout.pair.ly = [0.06, 0.08]
     }
 }
 
+/// Runs a one-case sweep file and returns (status, number of samples, last sample (x, y, u, ω)).
+fn run_one(name: &str, toml: &str) -> (String, i64, [f64; 4]) {
+    let dir = scratch(name);
+    let file = dir.join("s.toml");
+    std::fs::write(&file, toml).unwrap();
+    let spec = SweepSpec::from_file(&file).unwrap();
+    let cases = expand(&spec).unwrap();
+    let db = dir.join("one.db");
+    let mut opts = SweepOptions::new(db.clone());
+    opts.progress = xpflow::sweep::progress::ProgressMode::Quiet;
+    run_sweep(&spec, &cases, &SolverRunner, &opts).unwrap();
+    let store = Store::open(&db).unwrap();
+    let c = store.connection();
+    let status: String = c
+        .query_row("SELECT status FROM cases", [], |r| r.get(0))
+        .unwrap();
+    let n: i64 = c
+        .query_row("SELECT count(*) FROM samples", [], |r| r.get(0))
+        .unwrap();
+    let last = c
+        .query_row(
+            "SELECT x, y, u, omega FROM samples ORDER BY step DESC LIMIT 1",
+            [],
+            |r| Ok([r.get(0)?, r.get(1)?, r.get(2)?, r.get(3)?]),
+        )
+        .unwrap();
+    (status, n, last)
+}
+
 #[test]
-fn viscoelastic_and_couette_cases_are_refused_with_a_reason() {
+fn a_viscoelastic_confined_shear_case_runs() {
+    // thesis §5.6.3 fluid on a coarse mesh, 5 steps
+    let (status, n, last) = run_one(
+        "visco-shear",
+        r#"
+name = "visco"
+[base]
+geometry.confined_shear = { h = 1.0, l = 4.0 }
+fluid = { model = "giesekus", wi = 1.0, alpha = 0.01, beta = 0.1 }
+particles = { radius = 0.1, layout.explicit = { positions = [[0.0, 0.2]] } }
+numerics = { mesh = [40, 10], dt = 0.02, t_end = 0.1 }
+output = { sample_every = 1 }
+"#,
+    );
+    assert_eq!(status, "done");
+    assert_eq!(n, 6, "steps 0..=5");
+    // above the centreline the particle moves with the upper wall and rotates clockwise
+    // (ω* ≈ 1/2 in the store's clockwise-positive convention)
+    assert!(last[2] > 0.0 && last[3] > 0.3 && last[3] < 0.6, "{last:?}");
+}
+
+#[test]
+fn a_couette_case_runs_and_the_particle_orbits_counter_clockwise() {
+    let (status, n, last) = run_one(
+        "couette",
+        r#"
+name = "couette"
+[base]
+geometry.couette = { r1 = 1.0, r2 = 4.0, omega_inner = 1.0 }
+fluid = { model = "giesekus", wi = 0.3333333333333333, alpha = 0.01, beta = 0.1 }
+particles = { eps = 0.26666666666666666, layout.couette = { r0_star = 0.5 } }
+numerics = { mesh = [12, 64], dt = 0.05, t_end = 0.5 }
+output = { sample_every = 1 }
+"#,
+    );
+    assert_eq!(status, "done");
+    assert_eq!(n, 11, "steps 0..=10");
+    // started at (2.5, 0): the flow carries it counter-clockwise (y > 0), it stays near mid-gap
+    let r_star = (last[0].hypot(last[1]) - 1.0) / 3.0;
+    assert!(last[1] > 0.0 && (r_star - 0.5).abs() < 0.01, "{last:?}");
+}
+
+#[test]
+fn a_case_without_particles_is_refused_with_a_reason() {
     let v = serde_json::json!({
-        "geometry": { "confined_shear": { "h": 1.0, "l": 4.0 } },
+        "geometry": { "couette": { "r1": 1.0, "r2": 4.0 } },
         "fluid": { "model": "giesekus", "wi": 1.0, "alpha": 0.01, "beta": 0.1 },
-        "particles": { "radius": 0.1, "layout": { "pair": { "lx": 0.5, "ly": 0.06 } } },
-        "numerics": { "mesh": [40, 10], "dt": 0.1, "t_end": 1.0 }
+        "numerics": { "mesh": [12, 64], "dt": 0.1, "t_end": 1.0 }
     });
-    let spec = xpflow::config::CaseSpec::from_value(v).unwrap();
-    let err = SolverRunner.supports(&spec).unwrap_err();
-    assert!(err.contains("not built yet"), "{err}");
+    // refused when the case is read, before anything runs, naming the field
+    let err = xpflow::config::CaseSpec::from_value(v).unwrap_err();
+    assert!(format!("{err:?}").contains("particles"), "{err:?}");
 }

@@ -1,17 +1,24 @@
 //! The case runner backed by the solver: maps a [`CaseSpec`] to a solver set-up and reports every
 //! step to the sweep engine's observer.
 //!
-//! Supported today: confined shear flow of a Newtonian fluid (Wi = 0), quasi-static Stokes motion
-//! of free particles ([`crate::solver::motion`]). Viscoelastic cases (Wi > 0) and Couette flow are
-//! refused with a message until their solvers land.
+//! Supported: confined shear flow and the circular Couette cell with free particles. Wi = 0 in
+//! confined shear is quasi-static Stokes motion ([`crate::solver::motion`]); Wi > 0 (and every
+//! Couette case) runs the viscoelastic moving-particle step of [`crate::solver::moving`] (explicit
+//! coupling with LBLᵀ when β > 0, the semi-implicit stress of thesis Eq. 5.51 for β = 0). The
+//! cylinder-channel benchmark is run by `xpflow validate cylinder`, not as a sweep case.
 
 use crate::config::{CaseSpec, Geometry};
 use crate::fem::element::{q1, Q2_NODES};
-use crate::mesh::Mesh;
+use crate::mesh::{Axis, Mesh};
 use crate::observe::{CaseObserver, Control, FieldSnapshot, NodalField, ParticleState, Sample};
 use crate::particles::RigidState;
+use crate::solver::constitutive_stress::Coupling;
+use crate::solver::couette::CouetteGeometry;
 use crate::solver::cutcells::level_set;
 use crate::solver::motion::{FlowFields, MotionEnd, ShearCase};
+use crate::solver::moving::{Domain, MovingEnd, MovingParticles, ShearDomain};
+use crate::solver::rigid::{Motion, Particle};
+use crate::solver::viscoelastic::ViscoelasticParams;
 use crate::sweep::runner::{CaseResult, CaseRunner, RunStatus};
 use crate::xfem::LevelSet;
 use crate::xfem::{CutOptions, InterfaceApprox};
@@ -66,7 +73,7 @@ fn sample(step: u64, t: f64, s: &RigidState) -> Sample {
 /// Field snapshot on the Q2 nodes (each element drawn as 4 sub-quadrilaterals; the periodic seam
 /// gets its own column of nodes so that no quad spans the domain): velocity, pressure
 /// (interpolated bilinearly from the Q1 vertices) and the particles' level set.
-fn snapshot(step: u64, t: f64, mesh: &Mesh, f: &FlowFields, period: f64) -> FieldSnapshot {
+fn snapshot(step: u64, t: f64, mesh: &Mesh, f: &FlowFields, period: Option<f64>) -> FieldSnapshot {
     let (nx, ny) = mesh.dims();
     let cols = 2 * nx + 1;
     let n = cols * (2 * ny + 1);
@@ -106,7 +113,7 @@ fn snapshot(step: u64, t: f64, mesh: &Mesh, f: &FlowFields, period: f64) -> Fiel
             values: p,
         },
     ];
-    if let Ok(ls) = level_set(&f.particles, Some(period)) {
+    if let Ok(ls) = level_set(&f.particles, period) {
         fields.push(NodalField {
             name: "level_set".into(),
             components: 1,
@@ -125,19 +132,48 @@ fn snapshot(step: u64, t: f64, mesh: &Mesh, f: &FlowFields, period: f64) -> Fiel
 impl CaseRunner for SolverRunner {
     fn supports(&self, case: &CaseSpec) -> Result<(), String> {
         match case.geometry {
-            Geometry::ConfinedShear { .. } if case.fluid.wi == 0.0 && case.radius().is_some() => Ok(()),
-            Geometry::ConfinedShear { .. } if case.radius().is_none() => {
-                Err("confined shear without particles has nothing to simulate".into())
+            Geometry::ConfinedShear { .. } | Geometry::Couette { .. } if case.radius().is_none() => {
+                Err(format!(
+                    "{} without particles has nothing to simulate",
+                    case.geometry.kind()
+                ))
             }
-            Geometry::ConfinedShear { .. } => Err(format!(
-                "viscoelastic particle motion (Wi = {}) is not built yet (issues 4 and 5); Wi = 0 runs",
-                case.fluid.wi
-            )),
-            _ => Err(format!("the solver for {} is not built yet", case.geometry.kind())),
+            Geometry::ConfinedShear { .. } | Geometry::Couette { .. } => Ok(()),
+            Geometry::CylinderChannel { .. } => Err(
+                "the cylinder-channel benchmark runs with `xpflow validate cylinder`, not as a case"
+                    .into(),
+            ),
         }
     }
 
     fn run(&self, case: &CaseSpec, _threads: usize, obs: &mut dyn CaseObserver) -> CaseResult {
+        let viscoelastic = case.relaxation_time() > 0.0;
+        match case.geometry {
+            Geometry::ConfinedShear { h, l, wall_speed } if viscoelastic => {
+                let [nx, ny] = case.numerics.mesh;
+                let mesh = Mesh::rectangle(
+                    Axis::uniform(-0.5 * l, 0.5 * l, nx),
+                    Axis::uniform(-0.5 * h, 0.5 * h, ny),
+                    true,
+                );
+                let domain = ShearDomain { h, l, wall_speed };
+                return run_moving(case, mesh, domain, obs);
+            }
+            Geometry::Couette {
+                r1,
+                r2,
+                omega_inner,
+            } => {
+                let g = match CouetteGeometry::new(r1, r2, omega_inner) {
+                    Ok(g) => g,
+                    Err(e) => return failed(e.to_string()),
+                };
+                // numerics.mesh is [radial, azimuthal]
+                let [n_r, n_theta] = case.numerics.mesh;
+                return run_moving(case, g.build_mesh(n_theta, n_r), g, obs);
+            }
+            _ => {}
+        }
         let Some(setup) = Self::shear_case(case) else {
             return CaseResult {
                 status: RunStatus::Failed {
@@ -152,7 +188,7 @@ impl CaseRunner for SolverRunner {
             last_step = step;
             last_t = t;
             if obs.snapshot_due(step) {
-                obs.on_snapshot(&snapshot(step, t, mesh, fields, setup.l));
+                obs.on_snapshot(&snapshot(step, t, mesh, fields, Some(setup.l)));
             }
             let keep = obs.on_step(&sample(step, t, state)) == Control::Continue;
             if step % 50 == 0 {
@@ -173,5 +209,129 @@ impl CaseRunner for SolverRunner {
             steps: last_step,
             t: last_t,
         }
+    }
+}
+
+fn failed(error: String) -> CaseResult {
+    CaseResult {
+        status: RunStatus::Failed { error },
+        steps: 0,
+        t: 0.0,
+    }
+}
+
+/// Viscoelastic (or, in the Couette cell at Wi = 0, Newtonian) motion of free particles with the
+/// moving-particle time step; every step goes to the observer, contact ends the case normally (the
+/// observer classifies it), a failed solve or blow-up is recorded as divergence.
+fn run_moving<D: Domain>(
+    case: &CaseSpec,
+    mesh: Mesh,
+    domain: D,
+    obs: &mut dyn CaseObserver,
+) -> CaseResult {
+    let (eta_s, eta_p) = (case.solvent_viscosity(), case.polymer_viscosity());
+    let lambda = case.relaxation_time();
+    let (dt, t_end) = (case.numerics.dt, case.numerics.t_end);
+    let mut params = if lambda > 0.0 {
+        ViscoelasticParams::new(eta_s, eta_p, lambda, case.fluid.alpha, dt, t_end)
+    } else {
+        // Newtonian: a polymer of negligible viscosity and relaxation time, i.e. Stokes flow
+        // with the moving-particle machinery (the quasi-static path exists for confined shear)
+        const TRACE: f64 = 1e-12;
+        // (λ = 10Δt keeps the explicit relaxation term well inside its stability limit)
+        ViscoelasticParams::new(
+            eta_s + eta_p,
+            TRACE * (eta_s + eta_p),
+            10.0 * dt,
+            0.0,
+            dt,
+            t_end,
+        )
+    };
+    if eta_s == 0.0 {
+        // without solvent viscosity the explicit stress has no viscous term (thesis §5.3.2)
+        params.coupling = Coupling::SemiImplicit;
+    }
+    let x0 = case.initial_positions();
+    let Some(a) = case.radius() else {
+        return failed("no particles".into());
+    };
+    let n = x0.len();
+    let cut = CutOptions {
+        level: case.numerics.quadtree_level,
+        interface: InterfaceApprox::Linear,
+    };
+    let period = domain.period();
+    let mut sim = match MovingParticles::new(
+        mesh,
+        params,
+        domain,
+        x0,
+        vec![a; n],
+        vec![Motion::Free; n],
+        cut,
+    ) {
+        Ok(s) => s,
+        Err(e) => {
+            return CaseResult {
+                status: RunStatus::Diverged {
+                    reason: e.to_string(),
+                },
+                steps: 0,
+                t: 0.0,
+            }
+        }
+    };
+    let fields = |sim: &MovingParticles<D>| FlowFields {
+        u: sim.flow().velocity().to_vec(),
+        p: sim.flow().pressure().to_vec(),
+        particles: sim
+            .state()
+            .x
+            .iter()
+            .map(|&center| Particle {
+                center,
+                radius: a,
+                motion: Motion::Free,
+            })
+            .collect(),
+    };
+    if obs.snapshot_due(0) {
+        obs.on_snapshot(&snapshot(0, 0.0, sim.flow().mesh(), &fields(&sim), period));
+    }
+    if obs.on_step(&sample(0, 0.0, sim.state())) != Control::Continue {
+        return CaseResult {
+            status: RunStatus::Finished,
+            steps: 0,
+            t: 0.0,
+        };
+    }
+    let (mut last_step, mut last_t) = (0, 0.0);
+    let end = sim.run(t_end, false, |sim, report| {
+        let step = report.flow.step as u64;
+        let t = sim.time();
+        last_step = step;
+        last_t = t;
+        if obs.snapshot_due(step) {
+            obs.on_snapshot(&snapshot(step, t, sim.flow().mesh(), &fields(sim), period));
+        }
+        let keep = obs.on_step(&sample(step, t, sim.state())) == Control::Continue;
+        if step.is_multiple_of(50) {
+            obs.checkpoint();
+        }
+        keep
+    });
+    let status = match end {
+        Ok(MovingEnd::EndTime | MovingEnd::Stopped | MovingEnd::Steady | MovingEnd::Contact(_)) => {
+            RunStatus::Finished
+        }
+        Err(e) => RunStatus::Diverged {
+            reason: e.to_string(),
+        },
+    };
+    CaseResult {
+        status,
+        steps: last_step,
+        t: last_t,
     }
 }
