@@ -46,7 +46,9 @@ validate: build
 	$(BIN) validate free-particle
 	$(BIN) validate two-particles
 	$(BIN) validate cylinder --wi 0.3 --h 0.1,0.05 --dt 0.01 --t-max 15
-	$(BIN) validate cylinder --wi 0.6 --h 0.1 --dt 0.01 --t-max 30
+	$(BIN) validate cylinder --wi 0.6 --h 0.1,0.05 --dt 0.01 --t-max 30
+	@# issue 5: the time order is not reached yet (docs/validation.md); a FAIL here does not stop the rest
+	-$(BIN) validate translating-cylinder --h 0.125
 	$(CARGO) test $(PROFILE) -- --ignored
 
 # Benchmarks; record their output in docs/performance.md.
@@ -57,6 +59,8 @@ bench: build
 	$(BIN) bench stokes --mesh 440x110 --with-g
 	$(BIN) bench stokes --mesh 200x50 --solver lu --repeats 2
 	$(BIN) bench drag
+	$(BIN) bench moving --mesh 100x25,200x50,300x75,440x110 --particles 3
+	$(BIN) bench moving --mesh 200x50 --particles 1,6,9
 
 # Figures and tables from results databases (plotting/, docs/figures.md): `make figures` plots every
 # results/*.db, `make figures DB=results/demo.db` one (or several, space-separated) into results/figures/<db>/.

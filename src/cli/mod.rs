@@ -106,6 +106,9 @@ pub enum Study {
     FreeParticle,
     /// Two particles in confined Stokes shear flow (thesis §5.6.2): reverse / pass.
     TwoParticles,
+    /// Translating cylinder in a Giesekus fluid (thesis §5.4): order in Δt of K(t), 0 ≤ t ≤ λ,
+    /// over Δt = 0.04 … 0.005 against Δt = 0.0025, on the first `--h` (units of a).
+    TranslatingCylinder,
 }
 
 /// Benchmarks.
@@ -349,6 +352,22 @@ fn validate_particles(
                     "| {conf} | {:.1e} | {:.1e} | {:.5} | {refs} | {diff} |",
                     r[0], r[1], r[2]
                 );
+            }
+        }
+        Study::TranslatingCylinder => {
+            use crate::solver::ale::Remap;
+            use crate::validate::moving::translating_cylinder_convergence;
+            let h = hs.first().copied().unwrap_or(0.125);
+            for remap in [Remap::Quadratic, Remap::Bilinear] {
+                let s = translating_cylinder_convergence(
+                    h,
+                    &[0.04, 0.02, 0.01, 0.005],
+                    0.0025,
+                    cut,
+                    remap,
+                )?;
+                println!("history remap: {remap:?}\n{}", s.to_markdown());
+                ok &= remap != Remap::Quadratic || s.passed();
             }
         }
         Study::TwoParticles => {

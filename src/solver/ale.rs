@@ -20,8 +20,10 @@ use crate::fem::sparse::{q1_pattern, SparseMatrix};
 use crate::mesh::{Mesh, Shape, Side};
 use crate::solver::viscoelastic::StencilWeights;
 
-/// Newton tolerance of the point location, in reference coordinates (a few ulps of O(1)).
-const NEWTON_TOL: f64 = 1e-13;
+/// Newton tolerance of the point location, in reference coordinates. Round-off limits ξ to about
+/// ε|x|/h (7e-14 for |x| = 2, h = 0.013): a tolerance of 1e-13 failed there (300×75 channel,
+/// L = 4); 1e-11 still places the point to 1e-11 h.
+const NEWTON_TOL: f64 = 1e-11;
 /// Newton iterations before a candidate element is given up.
 const NEWTON_MAX_ITER: usize = 30;
 /// How far outside [−1, 1]² a converged ξ may lie and still count as inside (points on an edge
@@ -64,6 +66,12 @@ pub enum AleError {
     /// The mesh-displacement solve failed.
     #[error("mesh displacement solve failed: {0}")]
     Solve(#[from] SolveError),
+    /// The mesh displacement is not finite (a failed factorization the residual check missed).
+    #[error("mesh displacement not finite at vertex {vertex}")]
+    NonFinite {
+        /// First vertex with a non-finite displacement.
+        vertex: usize,
+    },
     /// A point has no pre-image in the displaced mesh (displacement too large for the mesh, or
     /// the point is outside the domain).
     #[error("point ({x:.6}, {y:.6}) not found in the displaced mesh: reduce Δt")]
@@ -249,6 +257,9 @@ impl TemporaryAle {
         for (c, r) in rhs.iter().enumerate() {
             solver.solve_checked(&self.matrix, r, &mut sol, LAPLACE_RESIDUAL_TOL)?;
             d.iter_mut().zip(&sol).for_each(|(d, s)| d[c] = *s);
+        }
+        if let Some(vertex) = d.iter().position(|v| !(v[0].is_finite() && v[1].is_finite())) {
+            return Err(AleError::NonFinite { vertex });
         }
         Ok(d)
     }
