@@ -258,7 +258,10 @@ impl TemporaryAle {
             solver.solve_checked(&self.matrix, r, &mut sol, LAPLACE_RESIDUAL_TOL)?;
             d.iter_mut().zip(&sol).for_each(|(d, s)| d[c] = *s);
         }
-        if let Some(vertex) = d.iter().position(|v| !(v[0].is_finite() && v[1].is_finite())) {
+        if let Some(vertex) = d
+            .iter()
+            .position(|v| !(v[0].is_finite() && v[1].is_finite()))
+        {
             return Err(AleError::NonFinite { vertex });
         }
         Ok(d)
