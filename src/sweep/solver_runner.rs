@@ -196,19 +196,9 @@ impl CaseRunner for SolverRunner {
             }
             keep
         });
-        let status = match end {
-            Ok(MotionEnd::EndTime | MotionEnd::Stopped | MotionEnd::Contact(_)) => {
-                RunStatus::Finished
-            }
-            Err(e) => RunStatus::Diverged {
-                reason: e.to_string(),
-            },
-        };
-        CaseResult {
-            status,
-            steps: last_step,
-            t: last_t,
-        }
+        // every end (end time, stop, contact) is a finished case: the observer classifies it
+        let end = end.map(|_: MotionEnd| ()).map_err(|e| e.to_string());
+        case_result(end, last_step, last_t)
     }
 }
 
@@ -321,17 +311,15 @@ fn run_moving<D: Domain>(
         }
         keep
     });
+    let end = end.map(|_: MovingEnd| ()).map_err(|e| e.to_string());
+    case_result(end, last_step, last_t)
+}
+
+/// A run that ended (`Ok`) is finished, whatever stopped it; an error is divergence.
+fn case_result(end: Result<(), String>, steps: u64, t: f64) -> CaseResult {
     let status = match end {
-        Ok(MovingEnd::EndTime | MovingEnd::Stopped | MovingEnd::Steady | MovingEnd::Contact(_)) => {
-            RunStatus::Finished
-        }
-        Err(e) => RunStatus::Diverged {
-            reason: e.to_string(),
-        },
+        Ok(()) => RunStatus::Finished,
+        Err(reason) => RunStatus::Diverged { reason },
     };
-    CaseResult {
-        status,
-        steps: last_step,
-        t: last_t,
-    }
+    CaseResult { status, steps, t }
 }
