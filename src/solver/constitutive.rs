@@ -34,13 +34,15 @@ use crate::fem::quadrature::gauss_quad;
 use crate::fem::sparse::{q1_pattern, SparseMatrix};
 use crate::mesh::Mesh;
 use crate::rheology::{log_conformation_rhs, Giesekus, Sym2, VelocityGradient};
-use crate::solver::ghost::{face_vertices, ghost_face_matrix, ghost_faces, GhostFace};
+use crate::solver::ghost::{
+    face_vertices, ghost_face_matrix, ghost_faces, pattern_with_faces, GhostFace,
+};
 use crate::solver::rigid::ElementCut;
 
 /// Ghost-penalty factor γ of the transport: face coefficient γ (a0 h³ + |w| h²), the scale of
 /// the mass and convection entries of the rows it stabilizes (a0 = 3/(2Δt) or 1/Δt, h the face
-/// length, w = u − u_m). 0.1 keeps the leading edge of a moving particle bounded and moves the
-/// fixed-cylinder drag by less than its discretization error (docs/validation.md).
+/// length, w = u − u_m). 1e-3 keeps the leading edge of a moving particle bounded and moves the
+/// fixed-cylinder drag by less than 5e-4; 0.1 moved it by −1.4 % (docs/validation.md).
 pub const GHOST_PENALTY: f64 = 1e-3;
 
 /// Errors of the constitutive (stress) solve; each says what to change.
@@ -260,7 +262,6 @@ pub struct LogConformationTransport {
     solver: Option<DirectSolver>,
     rule: Vec<([f64; 2], f64)>,
     cuts: Vec<ElementCut>,
-    element_vertices: Vec<[usize; 4]>,
     /// Faces with a ghost penalty (interior faces of cut elements).
     ghost: Vec<GhostFace>,
     /// Ghost-penalty factor (default [`GHOST_PENALTY`]; 0 switches it off).
@@ -295,7 +296,6 @@ impl LogConformationTransport {
             solver: None,
             rule: rule.points.into_iter().zip(rule.weights).collect(),
             cuts: vec![ElementCut::Fluid; mesh.n_elements()],
-            element_vertices: mesh.element_vertices.clone(),
             ghost: Vec::new(),
             ghost_penalty: GHOST_PENALTY,
             supg: SupgVelocity::Local,
@@ -314,12 +314,7 @@ impl LogConformationTransport {
         let ghost = ghost_faces(mesh, &cuts);
         if ghost != self.ghost {
             // the faces couple vertices of neighbouring elements: a new pattern
-            let mut groups: Vec<Vec<usize>> =
-                self.element_vertices.iter().map(|v| v.to_vec()).collect();
-            groups.extend(ghost.iter().map(|f| face_vertices(mesh, f).to_vec()));
-            let mut pb = crate::fem::sparse::PatternBuilder::new(self.n_vertices);
-            groups.iter().for_each(|g| pb.add_group(g));
-            self.matrix = pb.build();
+            self.matrix = pattern_with_faces(mesh, &ghost);
             self.solver = None;
             self.ghost = ghost;
         }
@@ -492,19 +487,18 @@ impl LogConformationTransport {
                 // the time-derivative part penalizes the jump of the discrete derivative
                 // (a0 s^{n+1} − history), so the penalty does not damp s at a rate 1/Δt
                 let mass = self.ghost_penalty * h * h * h;
+                let hist = verts.map(|j| match bdf2 {
+                    Some(prev) => (1.0 / dt) * (2.0 * history.current[j] - 0.5 * prev[j]),
+                    None => (1.0 / dt) * history.current[j],
+                });
                 for a in 0..8 {
-                    let i = verts[a];
-                    if self.fixed[i].is_some() {
+                    if self.fixed[verts[a]].is_some() {
                         continue;
                     }
+                    let i = verts[a];
                     let mut load = Sym2::ZERO;
                     for b in 0..8 {
-                        let j = verts[b];
-                        let hist = match bdf2 {
-                            Some(prev) => (1.0 / dt) * (2.0 * history.current[j] - 0.5 * prev[j]),
-                            None => (1.0 / dt) * history.current[j],
-                        };
-                        load += (mass * kg[8 * a + b]) * hist;
+                        load += (mass * kg[8 * a + b]) * hist[b];
                     }
                     self.rhs[0][i] += load.xx;
                     self.rhs[1][i] += load.xy;

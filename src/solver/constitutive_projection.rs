@@ -15,7 +15,9 @@ use crate::fem::sparse::{q1_pattern, SparseMatrix};
 use crate::mesh::Mesh;
 use crate::rheology::{Sym2, VelocityGradient};
 use crate::solver::constitutive::{inactive_vertices, ConstitutiveError};
-use crate::solver::ghost::{face_vertices, ghost_face_matrix, ghost_faces, GhostFace};
+use crate::solver::ghost::{
+    face_vertices, ghost_face_matrix, ghost_faces, pattern_with_faces, GhostFace,
+};
 use crate::solver::rigid::ElementCut;
 
 /// Value of a nodal Q1 tensor field at reference point `xi` of element `e`.
@@ -115,7 +117,6 @@ pub struct Q1Projection {
     rhs: Vec<Vec<f64>>,
     rule: Vec<([f64; 2], f64)>,
     cuts: Vec<ElementCut>,
-    element_vertices: Vec<[usize; 4]>,
     ghost: Vec<GhostFace>,
 }
 
@@ -148,7 +149,6 @@ impl Q1Projection {
             rhs: Vec::new(),
             rule: rule.points.into_iter().zip(rule.weights).collect(),
             cuts: vec![ElementCut::Fluid; mesh.n_elements()],
-            element_vertices: mesh.element_vertices.clone(),
             ghost: Vec::new(),
         }
     }
@@ -163,12 +163,7 @@ impl Q1Projection {
         self.fixed = inactive_vertices(mesh, &cuts);
         let ghost = ghost_faces(mesh, &cuts);
         if ghost != self.ghost {
-            let mut pb = crate::fem::sparse::PatternBuilder::new(self.n_vertices);
-            self.element_vertices.iter().for_each(|g| pb.add_group(g));
-            ghost
-                .iter()
-                .for_each(|f| pb.add_group(&face_vertices(mesh, f)));
-            self.matrix = pb.build();
+            self.matrix = pattern_with_faces(mesh, &ghost);
             self.solver = None;
             self.ghost = ghost;
         }

@@ -13,6 +13,7 @@
 //! the equation being stabilized).
 
 use crate::fem::element::{physical_gradients, q1, q2_map};
+use crate::fem::sparse::{PatternBuilder, SparseMatrix};
 use crate::mesh::Mesh;
 use crate::solver::rigid::ElementCut;
 
@@ -121,6 +122,17 @@ pub fn ghost_face_matrix(mesh: &Mesh, face: &GhostFace, k: &mut [f64; 64]) -> f6
         }
     }
     length
+}
+
+/// The Q1 pattern of the mesh's elements plus the couplings of the ghost `faces` (the vertices of
+/// the two elements of a face are coupled with each other).
+pub fn pattern_with_faces(mesh: &Mesh, faces: &[GhostFace]) -> SparseMatrix {
+    let mut pb = PatternBuilder::new(mesh.n_vertices());
+    mesh.element_vertices.iter().for_each(|g| pb.add_group(g));
+    faces
+        .iter()
+        .for_each(|f| pb.add_group(&face_vertices(mesh, f)));
+    pb.build()
 }
 
 /// The 8 vertex slots of a face (see [`ghost_face_matrix`]).

@@ -241,7 +241,8 @@ impl<D: Domain> MovingParticles<D> {
         })
     }
 
-    /// One time step. `Ok(None)` when the particles would touch (the step is not taken).
+    /// One time step; `Ok(Err(contact))` when the predicted particles would touch (the step is
+    /// not taken).
     ///
     /// # Errors
     /// [`MovingError`] when the geometry, the ALE map or a solve fails, or velocities blow up.
@@ -367,7 +368,7 @@ impl<D: Domain> MovingParticles<D> {
     }
 
     /// Chooses how the history is interpolated at the ALE pre-images (default
-    /// [`Remap::Quadratic`]).
+    /// [`Remap::Bilinear`]).
     pub fn set_remap(&mut self, remap: Remap) {
         self.ale.remap = remap;
     }
