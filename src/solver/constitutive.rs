@@ -105,6 +105,12 @@ impl LogConformationHistory {
     pub fn steps(&self) -> usize {
         self.steps
     }
+
+    /// Ends a step with its solution: s^{n−1} ← sⁿ, sⁿ ← `next`.
+    pub fn push(&mut self, next: Vec<Sym2>) {
+        self.previous = Some(std::mem::replace(&mut self.current, next));
+        self.steps += 1;
+    }
 }
 
 /// The flow seen by the transport step, all at `t^{n+1}`.
@@ -391,8 +397,7 @@ impl LogConformationTransport {
                 return Err(ConstitutiveError::NonFinite { step, vertex: v });
             }
         }
-        history.previous = Some(std::mem::replace(&mut history.current, next));
-        history.steps = step;
+        history.push(next);
         self.timings = TransportTimings {
             assembly: (t1 - t0).as_secs_f64(),
             symbolic,

@@ -18,9 +18,10 @@ use std::time::Instant;
 use crate::fem::linsolve::{SolveError, SolverKind};
 use crate::mesh::{Mesh, Side};
 use crate::rheology::{Fluid, RheologyError, Sym2};
+use crate::solver::ale::extend_inside;
 use crate::solver::constitutive::{
-    ConstitutiveError, LogConformationHistory, LogConformationTransport, TransportFlow,
-    TransportTimings,
+    inactive_vertices, ConstitutiveError, LogConformationHistory, LogConformationTransport,
+    TransportFlow, TransportTimings,
 };
 use crate::solver::constitutive_projection::{
     fluid_mean, sym_at, velocity_gradient_at, Q1Projection,
@@ -229,6 +230,11 @@ pub struct ViscoelasticFlow {
     mesh_velocity: Option<Vec<[f64; 2]>>,
     /// Rigid-body velocities (U_x, U_y, ω) of the particles in the last flow solve.
     rigid: Vec<[f64; 3]>,
+    /// sⁿ as solved on its own configuration, kept by the last `move_particles` (with the step
+    /// count it belongs to): the next move interpolates it once at the composite pre-image of
+    /// Eq. 5.43. The mapped copy in `history.previous` lives on the configuration after that
+    /// move; mapping it with the composite pre-image would carry it one step too far.
+    unmapped: Option<(usize, Vec<Sym2>)>,
 }
 
 /// Interpolation of a vertex field at a point: up to nine vertices and their weights (the four
@@ -265,6 +271,32 @@ impl std::ops::Mul<f64> for Grad4 {
     fn mul(self, a: f64) -> Self {
         Grad4(self.0.map(|v| v * a))
     }
+}
+
+/// Moves sⁿ and s^{n−1} onto the new configuration (Eqs. 5.42–5.43). sⁿ is interpolated at
+/// Φₙ⁻¹(x); s^{n−1} once at Φₙ₋₁⁻¹∘Φₙ⁻¹(x) from the copy of it as solved, which the previous
+/// move left in `unmapped` (the copy in `history.previous` was already mapped by that move, and
+/// the composite pre-image would carry it a step too far). Only when the last step did not move
+/// (no unmapped copy of that step) is `history.previous` on the configuration of sⁿ, and then it
+/// follows sⁿ's map. Leaves the unmapped sⁿ in `unmapped`.
+fn carry_history(
+    history: &mut LogConformationHistory,
+    unmapped: &mut Option<(usize, Vec<Sym2>)>,
+    map: &HistoryMap<'_>,
+) {
+    let steps = history.steps();
+    let unmapped_nm1 = unmapped
+        .take()
+        .filter(|(at, _)| at + 1 == steps)
+        .map(|u| u.1);
+    history.previous = match (map.at_n_minus_1, unmapped_nm1, history.previous.take()) {
+        (None, _, _) => None,
+        (Some(at), Some(raw), _) => Some(interpolate(&raw, at)),
+        (Some(_), None, Some(prev)) => Some(interpolate(&prev, map.at_n)),
+        (Some(_), None, None) => None,
+    };
+    let current = interpolate(&history.current, map.at_n);
+    *unmapped = Some((steps, std::mem::replace(&mut history.current, current)));
 }
 
 fn interpolate<T>(field: &[T], at: &[StencilWeights]) -> Vec<T>
@@ -343,6 +375,7 @@ impl ViscoelasticFlow {
             fluid_node,
             mesh_velocity: None,
             rigid: vec![[0.0; 3]; n_particles],
+            unmapped: None,
             stokes: Stokes::with_particles(mesh.clone(), sp, particles, cuts.clone()),
             transport,
             projection,
@@ -449,19 +482,21 @@ impl ViscoelasticFlow {
         }
         let nv = self.mesh.n_vertices();
         assert_eq!(map.at_n.len(), nv, "one pre-image per vertex");
+        // sⁿ and Gⁿ as solved on the old configuration, extended into the old particles
+        let known: Vec<bool> = inactive_vertices(&self.mesh, &self.cuts)
+            .iter()
+            .map(Option::is_none)
+            .collect();
+        extend_inside(&self.mesh, &known, &mut self.history.current);
+        let mut g: Vec<Grad4> = self.gradient.iter().map(|&g| Grad4(g)).collect();
+        extend_inside(&self.mesh, &known, &mut g);
+        carry_history(&mut self.history, &mut self.unmapped, &map);
+        self.gradient = interpolate(&g, map.at_n).into_iter().map(|g| g.0).collect();
         self.fluid_node = fluid_nodes(&self.mesh, &particles, &cuts);
         self.transport.set_cuts(&self.mesh, cuts.clone());
         self.projection.set_cuts(&self.mesh, cuts.clone());
         self.stokes.set_particles(particles, cuts.clone());
         self.cuts = cuts;
-        let h = &mut self.history;
-        h.current = interpolate(&h.current, map.at_n);
-        h.previous = match (h.previous.take(), map.at_n_minus_1) {
-            (Some(prev), Some(at)) => Some(interpolate(&prev, at)),
-            _ => None,
-        };
-        let g: Vec<Grad4> = self.gradient.iter().map(|&g| Grad4(g)).collect();
-        self.gradient = interpolate(&g, map.at_n).into_iter().map(|g| g.0).collect();
         self.mesh_velocity = Some(map.mesh_velocity.to_vec());
         self.projection.project_conformation(
             &self.mesh,
@@ -827,4 +862,77 @@ fn arg_max(values: impl Iterator<Item = f64>) -> (usize, f64) {
             (i, m)
         }
     })
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    /// Pre-image of vertex i is vertex i − k (clamped at 0), weight 1: a shift by k vertices.
+    fn shift(n: usize, k: usize) -> Vec<StencilWeights> {
+        (0..n)
+            .map(|i| {
+                let mut w = ([i.saturating_sub(k); 9], [0.0; 9]);
+                w.1[0] = 1.0;
+                w
+            })
+            .collect()
+    }
+
+    fn field(n: usize, offset: f64) -> Vec<Sym2> {
+        (0..n)
+            .map(|i| Sym2::new(offset + i as f64, 0.0, 0.0))
+            .collect()
+    }
+
+    #[test]
+    fn previous_level_is_mapped_once_at_the_composite_pre_image() {
+        let n = 8;
+        let (s1, s2) = (shift(n, 1), shift(n, 2));
+        let velocity = vec![[0.0; 2]; 1];
+        let mut h = LogConformationHistory::from_field(field(n, 0.0));
+        let mut unmapped = None;
+        // first move (Euler step): s⁰ follows Φ₀⁻¹, no s^{-1}
+        let first = HistoryMap {
+            at_n: &s1,
+            at_n_minus_1: None,
+            mesh_velocity: &velocity,
+        };
+        carry_history(&mut h, &mut unmapped, &first);
+        assert!(h.previous.is_none());
+        h.push(field(n, 100.0));
+        // second move: s¹ at Φ₁⁻¹, s⁰ at Φ₀⁻¹∘Φ₁⁻¹ = a shift by 2 from s⁰ as solved
+        let second = HistoryMap {
+            at_n: &s1,
+            at_n_minus_1: Some(&s2),
+            mesh_velocity: &velocity,
+        };
+        carry_history(&mut h, &mut unmapped, &second);
+        let prev = h.previous.as_ref().expect("BDF2 level");
+        for i in 2..n {
+            assert_eq!(h.current[i].xx, 100.0 + (i - 1) as f64);
+            // mapping the already mapped copy would give i − 3
+            assert_eq!(prev[i].xx, (i - 2) as f64, "vertex {i}");
+        }
+    }
+
+    #[test]
+    fn without_an_earlier_move_the_previous_level_follows_the_current_map() {
+        let n = 8;
+        let (s1, s2) = (shift(n, 1), shift(n, 2));
+        let velocity = vec![[0.0; 2]; 1];
+        let mut h = LogConformationHistory::from_field(field(n, 0.0));
+        h.push(field(n, 100.0));
+        let map = HistoryMap {
+            at_n: &s1,
+            at_n_minus_1: Some(&s2),
+            mesh_velocity: &velocity,
+        };
+        let mut unmapped = None;
+        carry_history(&mut h, &mut unmapped, &map);
+        let prev = h.previous.as_ref().expect("BDF2 level");
+        for i in 1..n {
+            assert_eq!(prev[i].xx, (i - 1) as f64, "vertex {i}");
+        }
+    }
 }
