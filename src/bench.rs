@@ -163,6 +163,8 @@ pub struct MovingBench {
     pub total: f64,
     /// Flow-matrix pattern rebuilds over the run (warm-up included).
     pub pattern_rebuilds: usize,
+    /// Numeric flow factorizations over the run (warm-up and the initial solve included).
+    pub flow_factorizations: usize,
     /// Steps of the run (warm-up included).
     pub run_steps: usize,
     /// Peak resident memory of the process (MB), if readable.
@@ -243,6 +245,7 @@ pub fn moving(
         conformation_projection: med(&|r| r.flow.timings.conformation_projection),
         total: med(&|r| r.timings.total),
         pattern_rebuilds: sim.flow().pattern_rebuilds(),
+        flow_factorizations: sim.flow().flow_refactorizations(),
         run_steps: warm_up + steps,
         peak_rss_mb: peak_rss_mb(),
     })
@@ -250,12 +253,12 @@ pub fn moving(
 
 impl MovingBench {
     /// Markdown table header matching [`to_row`](Self::to_row).
-    pub const HEADER: &'static str = "| mesh | particles | flow / stress unknowns | ALE | classify | flow asm | flow sym | flow factor | flow solve | G proj | s asm | s factor | s solve | c proj | step | pattern rebuilds | peak RSS |\n|---|---|---|---|---|---|---|---|---|---|---|---|---|---|---|---|---|";
+    pub const HEADER: &'static str = "| mesh | particles | flow / stress unknowns | ALE | classify | flow asm | flow sym | flow factor | flow solve | G proj | s asm | s factor | s solve | c proj | step | pattern rebuilds | flow factorizations | peak RSS |\n|---|---|---|---|---|---|---|---|---|---|---|---|---|---|---|---|---|---|";
 
     /// One markdown table row (seconds).
     pub fn to_row(&self) -> String {
         format!(
-            "| {} | {} | {} / {} | {:.4} | {:.4} | {:.4} | {:.4} | {:.4} | {:.4} | {:.4} | {:.4} | {:.4} | {:.4} | {:.4} | **{:.3}** | {} of {} | {} |",
+            "| {} | {} | {} / {} | {:.4} | {:.4} | {:.4} | {:.4} | {:.4} | {:.4} | {:.4} | {:.4} | {:.4} | {:.4} | {:.4} | **{:.3}** | {} of {} | {} of {} | {} |",
             self.mesh,
             self.particles,
             self.unknowns.0,
@@ -274,6 +277,8 @@ impl MovingBench {
             self.total,
             self.pattern_rebuilds,
             self.run_steps,
+            self.flow_factorizations,
+            self.run_steps + 1,
             self.peak_rss_mb.map_or("—".into(), |m| format!("{m:.0} MB")),
         )
     }

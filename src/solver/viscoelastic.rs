@@ -512,6 +512,12 @@ impl ViscoelasticFlow {
         &self.rigid
     }
 
+    /// Numeric factorizations of the flow matrix so far (steps that reused an older one by
+    /// GMRES, or an unchanged matrix, do not count).
+    pub fn flow_refactorizations(&self) -> usize {
+        self.stokes.refactorizations
+    }
+
     /// Pattern rebuilds of the flow matrix caused by moving particles (the rest reused the
     /// symbolic factorization).
     pub fn pattern_rebuilds(&self) -> usize {
