@@ -230,6 +230,10 @@ pub struct ViscoelasticFlow {
     mesh_velocity: Option<Vec<[f64; 2]>>,
     /// Rigid-body velocities (U_x, U_y, ω) of the particles in the last flow solve.
     rigid: Vec<[f64; 3]>,
+    /// Projected c^{n−1} on the current configuration (none before the first step): the
+    /// semi-implicit stress uses the BDF2 predictor with it (see
+    /// [`crate::solver::constitutive_stress`]).
+    conformation_prev: Option<Vec<Sym2>>,
     /// sⁿ as solved on its own configuration, kept by the last `move_particles` (with the step
     /// count it belongs to): the next move interpolates it once at the composite pre-image of
     /// Eq. 5.43. The mapped copy in `history.previous` lives on the configuration after that
@@ -376,6 +380,7 @@ impl ViscoelasticFlow {
             mesh_velocity: None,
             rigid: vec![[0.0; 3]; n_particles],
             unmapped: None,
+            conformation_prev: None,
             stokes: Stokes::with_particles(mesh.clone(), sp, particles, cuts.clone()),
             transport,
             projection,
@@ -503,6 +508,18 @@ impl ViscoelasticFlow {
             &self.history.current,
             &mut self.conformation,
         )?;
+        self.conformation_prev = match &self.history.previous {
+            Some(prev) => {
+                let mut c = self
+                    .conformation_prev
+                    .take()
+                    .unwrap_or_else(|| vec![Sym2::IDENTITY; nv]);
+                self.projection
+                    .project_conformation(&self.mesh, prev, &mut c)?;
+                Some(c)
+            }
+            None => None,
+        };
         Ok(())
     }
 
@@ -640,6 +657,7 @@ impl ViscoelasticFlow {
             mesh_velocity: self.mesh_velocity.as_deref(),
             devss: (!self.params.coupled_g && self.params.theta > 0.0)
                 .then_some((self.params.theta, self.gradient.as_slice())),
+            previous: self.conformation_prev.as_deref(),
         };
         let mut sol = self
             .stokes
@@ -672,8 +690,14 @@ impl ViscoelasticFlow {
             &flow,
             &mut self.history,
         )?;
-        // 4. project_conformation
+        // 4. project_conformation (cⁿ kept as c^{n−1} for the next step's stress predictor)
         let t1 = Instant::now();
+        let mut prev = self
+            .conformation_prev
+            .take()
+            .unwrap_or_else(|| vec![Sym2::IDENTITY; self.conformation.len()]);
+        std::mem::swap(&mut prev, &mut self.conformation);
+        self.conformation_prev = Some(prev);
         self.projection.project_conformation(
             &self.mesh,
             &self.history.current,
