@@ -17,6 +17,12 @@
 //!
 //! With a decoupled DEVSS-G (`coupled_g = false` in the flow solver) the term `−θGⁿ` is added to
 //! `b` at volume points (not on particle boundaries, where only τ belongs).
+//!
+//! The lagged terms of the explicit path, `τ(cⁿ)` and `θGⁿ` standing for their values at
+//! t^{n+1}, make it first order in time (translating cylinder held at rest, η_s = 0.1,
+//! docs/validation.md). Extrapolating them, `τ(2cⁿ − c^{n−1})` and `θ(2Gⁿ − G^{n−1})`, halved
+//! the error there but made the explicit coupling unstable without solvent (the β = 0 shear
+//! tests diverged), so the explicit path stays lagged; the semi-implicit one is second order.
 
 use crate::mesh::Mesh;
 use crate::rheology::{Giesekus, SemiImplicitStress, Sym2};

@@ -289,18 +289,37 @@ fn carry_history(
     map: &HistoryMap<'_>,
 ) {
     let steps = history.steps();
-    let unmapped_nm1 = unmapped
+    let unmapped_nm1 = take_unmapped(unmapped, steps);
+    history.previous = carry_previous(history.previous.take(), unmapped_nm1, map);
+    let current = interpolate(&history.current, map.at_n);
+    *unmapped = Some((steps, std::mem::replace(&mut history.current, current)));
+}
+
+/// The unmapped copy of the level before the current one, if the last move kept it one step
+/// ago.
+fn take_unmapped<T>(unmapped: &mut Option<(usize, Vec<T>)>, steps: usize) -> Option<Vec<T>> {
+    unmapped
         .take()
         .filter(|(at, _)| at + 1 == steps)
-        .map(|u| u.1);
-    history.previous = match (map.at_n_minus_1, unmapped_nm1, history.previous.take()) {
+        .map(|u| u.1)
+}
+
+/// The level n−1 on the new configuration: from its unmapped copy at the composite pre-image,
+/// or, without one, the stored copy (then on the configuration of level n) at Φₙ⁻¹.
+fn carry_previous<T>(
+    mapped: Option<Vec<T>>,
+    unmapped_nm1: Option<Vec<T>>,
+    map: &HistoryMap<'_>,
+) -> Option<Vec<T>>
+where
+    T: Copy + std::ops::Add<Output = T> + std::ops::Mul<f64, Output = T>,
+{
+    match (map.at_n_minus_1, unmapped_nm1, mapped) {
         (None, _, _) => None,
         (Some(at), Some(raw), _) => Some(interpolate(&raw, at)),
         (Some(_), None, Some(prev)) => Some(interpolate(&prev, map.at_n)),
         (Some(_), None, None) => None,
-    };
-    let current = interpolate(&history.current, map.at_n);
-    *unmapped = Some((steps, std::mem::replace(&mut history.current, current)));
+    }
 }
 
 fn interpolate<T>(field: &[T], at: &[StencilWeights]) -> Vec<T>
