@@ -18,6 +18,7 @@ mod validate;
 pub use case::{CaseSpec, Fluid, Geometry, Layout, Model, Numerics, Output, Particles, Stop};
 pub use error::{ConfigError, SpecError};
 pub use sweep_file::{Axis, SweepSpec};
+pub use validate::MAX_DT_OVER_LAMBDA;
 
 #[cfg(test)]
 mod tests;

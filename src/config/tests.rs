@@ -115,6 +115,16 @@ fn impossible_physics_is_rejected() {
         field_of(set(shear(), "/numerics/dt", json!(-0.1))),
         "numerics.dt"
     );
+    // λ = Wi H/U_w = 2 here (U_w = 1): Δt up to λ/2 runs, beyond it the explicit relaxation
+    // of the Gear scheme diverges
+    let lambda = CaseSpec::from_value(shear()).unwrap().relaxation_time();
+    let edge = MAX_DT_OVER_LAMBDA * lambda;
+    let fine = set(shear(), "/numerics/dt", json!(edge));
+    assert!(CaseSpec::from_value(fine).is_ok());
+    let too_long = set(shear(), "/numerics/dt", json!(1.01 * edge));
+    let err = CaseSpec::from_value(too_long).expect_err("Δt > λ/2");
+    assert_eq!(err.field, "numerics.dt");
+    assert!(err.message.contains("λ"), "{}", err.message);
     assert_eq!(
         field_of(set(shear(), "/particles/layout/string/n", json!(0))),
         "particles.layout.string.n"

@@ -11,6 +11,11 @@ use crate::geometry::layout;
 /// only overlaps deeper than this fraction of the radius are rejected, to forgive decimal rounding.
 const TOUCH_TOLERANCE: f64 = 1e-9;
 
+/// Largest Δt/λ accepted. The Gear scheme treats the relaxation term explicitly (thesis
+/// Eq. 5.52): a stress-free start with Δt ≫ λ diverged (a Wi → 0 case with Δt = 10λ), and the
+/// Giesekus relaxation rate grows above 1/λ with the stress; half of λ leaves that margin.
+pub const MAX_DT_OVER_LAMBDA: f64 = 0.5;
+
 /// Largest quadtree level accepted: level 10 already integrates the disc area to 1e-10 (thesis Table 2.2).
 const MAX_QUADTREE_LEVEL: u32 = 12;
 
@@ -41,7 +46,25 @@ impl CaseSpec {
         self.validate_geometry()?;
         self.validate_fluid()?;
         self.validate_numerics()?;
+        self.validate_time_step()?;
         self.validate_particles()
+    }
+
+    fn validate_time_step(&self) -> Result<(), SpecError> {
+        let lambda = self.relaxation_time();
+        let dt = self.numerics.dt;
+        if lambda > 0.0 && lambda.is_finite() && dt > MAX_DT_OVER_LAMBDA * lambda {
+            return Err(SpecError::new(
+                "numerics.dt",
+                format!(
+                    "Δt = {dt} is more than {MAX_DT_OVER_LAMBDA} λ (λ = Wi/γ̇ = {lambda:.4}): the \
+                     relaxation term is explicit in the time scheme and diverges for Δt ≳ λ; \
+                     use dt ≤ {:.4}",
+                    MAX_DT_OVER_LAMBDA * lambda
+                ),
+            ));
+        }
+        Ok(())
     }
 
     fn validate_geometry(&self) -> Result<(), SpecError> {
