@@ -22,7 +22,7 @@ use crate::fem::element::{physical_gradients, q1, q2, q2_map};
 use crate::fem::linsolve::{DirectSolver, DofBlocks, SolveError, SolverKind};
 use crate::fem::quadrature::{gauss_quad, QuadRule};
 use crate::fem::sparse::{PatternBuilder, SparseMatrix};
-use crate::mesh::{Mesh, Side};
+use crate::mesh::{Mesh, Shape, Side};
 use crate::solver::polymer_terms::{boundary_terms, volume_terms, PolymerStress};
 use crate::solver::rigid::{
     jump_vectors, weak_rigid_kernel, CutElement, ElementCut, Motion, Particle, WeakForm,
@@ -139,41 +139,70 @@ pub struct StokesSolution {
     pub residual: f64,
 }
 
-/// What the pattern sees of an element's cut: its kind and the particles cutting it.
-#[derive(Debug, Clone, PartialEq)]
-enum CutKind {
-    Fluid,
-    Inside,
-    Cut(Vec<usize>),
-}
+/// How far beyond its boundary, in sizes of the element concerned, a particle's rigid-body
+/// unknowns are coupled in the matrix pattern. A particle can move about this far before an
+/// element it cuts lies outside the coupled set and the pattern and its symbolic factorization
+/// must be rebuilt; the unused couplings store zeros.
+const RIGID_REACH: f64 = 2.0;
 
-fn cut_topology(cuts: &[ElementCut]) -> Vec<CutKind> {
-    cuts.iter()
-        .map(|c| match c {
-            ElementCut::Fluid => CutKind::Fluid,
-            ElementCut::Inside => CutKind::Inside,
-            ElementCut::Cut(c) => CutKind::Cut(c.particles.iter().map(|p| p.particle).collect()),
+/// Per particle, the elements whose velocity and pressure the pattern couples to its rigid-body
+/// unknowns: bounding box within the radius plus [`RIGID_REACH`] element sizes of the centre
+/// (nearest periodic image on a periodic rectangle).
+fn rigid_reach(mesh: &Mesh, particles: &[Particle]) -> Vec<Vec<bool>> {
+    let period = (mesh.periodic && mesh.shape == Shape::Rectangle)
+        .then(|| mesh.ax.vertices[mesh.ax.len()] - mesh.ax.vertices[0]);
+    particles
+        .iter()
+        .map(|p| {
+            mesh.element_coords
+                .iter()
+                .map(|xe| {
+                    let (mut lo, mut hi) = ([f64::INFINITY; 2], [f64::NEG_INFINITY; 2]);
+                    for x in xe {
+                        for i in 0..2 {
+                            lo[i] = lo[i].min(x[i]);
+                            hi[i] = hi[i].max(x[i]);
+                        }
+                    }
+                    let size = (hi[0] - lo[0]).max(hi[1] - lo[1]);
+                    let mut c = p.center;
+                    if let Some(l) = period {
+                        let mid = 0.5 * (lo[0] + hi[0]);
+                        c[0] -= l * ((c[0] - mid) / l).round();
+                    }
+                    let q = [c[0].clamp(lo[0], hi[0]), c[1].clamp(lo[1], hi[1])];
+                    (q[0] - c[0]).hypot(q[1] - c[1]) <= p.radius + RIGID_REACH * size
+                })
+                .collect()
         })
         .collect()
 }
 
-/// The sparsity pattern of the flow matrix for the given cuts (elements inside particles add
-/// nothing; cut elements couple their velocity and pressure to the rigid-body unknowns).
-fn build_pattern(mesh: &Mesh, layout: &Layout, cuts: &[ElementCut]) -> SparseMatrix {
+/// Whether every cut element's particles are coupled to it in the pattern.
+fn reach_covers(reach: &[Vec<bool>], cuts: &[ElementCut]) -> bool {
+    cuts.iter().enumerate().all(|(e, c)| match c {
+        ElementCut::Cut(c) => c.particles.iter().all(|pc| reach[pc.particle][e]),
+        _ => true,
+    })
+}
+
+/// The sparsity pattern of the flow matrix: every element (also those inside particles, which
+/// store zeros next to identity rows, so that a particle crossing the mesh does not change the
+/// pattern) and the rigid-body couplings of the elements in each particle's reach.
+fn build_pattern(mesh: &Mesh, layout: &Layout, reach: &[Vec<bool>]) -> SparseMatrix {
     let mut pb = PatternBuilder::new(layout.n_dofs());
     let mut dofs = Vec::with_capacity(MAX_EL_DOFS);
     let (mut g_ij, mut u_i) = (Vec::with_capacity(4), Vec::with_capacity(9));
+    let mut group = Vec::with_capacity(25);
     for e in 0..mesh.n_elements() {
-        if matches!(cuts[e], ElementCut::Inside) {
-            continue;
-        }
         element_dofs(mesh, layout, e, &mut dofs);
-        if let ElementCut::Cut(cut) = &cuts[e] {
-            let mut group = dofs[..22].to_vec();
-            for pc in &cut.particles {
-                group.extend((0..3).map(|c| layout.rigid(pc.particle, c)));
+        for (i, r) in reach.iter().enumerate() {
+            if r[e] {
+                group.clear();
+                group.extend_from_slice(&dofs[..22]);
+                group.extend((0..3).map(|c| layout.rigid(i, c)));
+                pb.add_group(&group);
             }
-            pb.add_group(&group);
         }
         // velocity and pressure couple fully; each G_ij only with itself and u_i (a third of
         // the entries a full element block would store)
@@ -188,6 +217,10 @@ fn build_pattern(mesh: &Mesh, layout: &Layout, cuts: &[ElementCut]) -> SparseMat
                 pb.add_coupling(&g_ij, &u_i);
             }
         }
+    }
+    // a particle's three rigid unknowns couple with each other even outside any cut
+    for i in 0..layout.n_particles {
+        pb.add_group(&[layout.rigid(i, 0), layout.rigid(i, 1), layout.rigid(i, 2)]);
     }
     pb.build()
 }
@@ -224,7 +257,8 @@ pub struct Stokes {
     rule: QuadRule,
     particles: Vec<Particle>,
     cuts: Vec<ElementCut>,
-    topology: Vec<CutKind>,
+    /// Per particle, the elements coupled to its rigid-body unknowns in the pattern.
+    reach: Vec<Vec<bool>>,
     /// Timings of the last solve.
     pub timings: Timings,
 }
@@ -255,9 +289,13 @@ impl Stokes {
             with_g: params.theta > 0.0 && params.coupled_g,
             n_particles: particles.len(),
         };
-        let matrix = build_pattern(&mesh, &layout, &cuts);
+        let mut reach = rigid_reach(&mesh, &particles);
+        if !reach_covers(&reach, &cuts) {
+            // cuts not of these particles' positions (a caller's choice): couple every element
+            reach = vec![vec![true; mesh.n_elements()]; particles.len()];
+        }
+        let matrix = build_pattern(&mesh, &layout, &reach);
         let n = layout.n_dofs();
-        let topology = cut_topology(&cuts);
         let mut st = Self {
             mesh,
             params,
@@ -275,7 +313,7 @@ impl Stokes {
             rule: gauss_quad(3),
             particles,
             cuts,
-            topology,
+            reach,
             timings: Timings::default(),
         };
         st.fixed = st.geometric_constraints();
@@ -283,8 +321,8 @@ impl Stokes {
     }
 
     /// Moves the particles (same number, new centres and motions) and cuts: the pattern and the
-    /// symbolic factorization are kept when every element keeps its kind (fluid, inside, cut by
-    /// the same particles) — the usual case for a step of a moving particle — and rebuilt
+    /// symbolic factorization are kept while every cut element lies in its particles' reach
+    /// (about [`RIGID_REACH`] element sizes of travel) and rebuilt around the new positions
     /// otherwise. Wall velocities and the pressure pin are kept.
     ///
     /// # Panics
@@ -296,13 +334,15 @@ impl Stokes {
             self.mesh.n_elements(),
             "one ElementCut per element"
         );
-        let topology = cut_topology(&cuts);
         self.particles = particles;
         self.cuts = cuts;
-        if topology != self.topology {
-            self.matrix = build_pattern(&self.mesh, &self.layout, &self.cuts);
+        if !reach_covers(&self.reach, &self.cuts) {
+            self.reach = rigid_reach(&self.mesh, &self.particles);
+            if !reach_covers(&self.reach, &self.cuts) {
+                self.reach = vec![vec![true; self.mesh.n_elements()]; self.particles.len()];
+            }
+            self.matrix = build_pattern(&self.mesh, &self.layout, &self.reach);
             self.solver = None;
-            self.topology = topology;
             self.pattern_rebuilds += 1;
         }
         self.factored_values = None;
