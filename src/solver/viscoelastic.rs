@@ -527,8 +527,10 @@ impl ViscoelasticFlow {
             &self.history.current,
             &mut self.conformation,
         )?;
+        // c^{n−1} serves the semi-implicit predictor only
+        let semi_implicit = self.params.coupling == Coupling::SemiImplicit;
         self.conformation_prev = match &self.history.previous {
-            Some(prev) => {
+            Some(prev) if semi_implicit => {
                 let mut c = self
                     .conformation_prev
                     .take()
@@ -537,7 +539,7 @@ impl ViscoelasticFlow {
                     .project_conformation(&self.mesh, prev, &mut c)?;
                 Some(c)
             }
-            None => None,
+            _ => None,
         };
         Ok(())
     }
