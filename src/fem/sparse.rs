@@ -172,6 +172,34 @@ impl SparseMatrix {
         }
     }
 
+    /// For a matrix assembled without constraints: moves the columns of constrained dofs to the
+    /// right-hand side (`rhs_i −= a_ij g_j` for unconstrained i) and zeroes the rows and columns
+    /// of constrained dofs — what [`scatter`](Self::scatter) does element by element. Follow
+    /// with [`apply_constraints`](Self::apply_constraints).
+    pub fn eliminate_constraints(&mut self, rhs: &mut [f64], fixed: &[Option<f64>]) {
+        for j in 0..self.n {
+            let (s, e) = (self.col_ptr[j], self.col_ptr[j + 1]);
+            match fixed[j] {
+                Some(g) => {
+                    for p in s..e {
+                        let i = self.row_idx[p];
+                        if fixed[i].is_none() {
+                            rhs[i] -= self.values[p] * g;
+                        }
+                        self.values[p] = 0.0;
+                    }
+                }
+                None => {
+                    for p in s..e {
+                        if fixed[self.row_idx[p]].is_some() {
+                            self.values[p] = 0.0;
+                        }
+                    }
+                }
+            }
+        }
+    }
+
     /// Puts identity rows/columns on constrained dofs and their values in `rhs`.
     /// Call after all element scatters.
     pub fn apply_constraints(&mut self, rhs: &mut [f64], fixed: &[Option<f64>]) {

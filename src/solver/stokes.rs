@@ -259,6 +259,14 @@ pub struct Stokes {
     cuts: Vec<ElementCut>,
     /// Per particle, the elements coupled to its rigid-body unknowns in the pattern.
     reach: Vec<Vec<bool>>,
+    /// Matrix values of the elements outside every particle's reach (fluid while the pattern
+    /// lasts), without stress or constraints, and the (η, θ) they were built with: with no stress
+    /// in the matrix (explicit coupling) a step starts from them and assembles the matrix of the
+    /// elements in reach only. (Subtracting cut elements from an all-fluid base instead lost the
+    /// relative accuracy of the tiny entries of sliver rows to cancellation.)
+    fluid_base: Option<(Vec<f64>, f64, f64)>,
+    /// All dofs unconstrained (assembly before the elimination of constraints).
+    unconstrained: Vec<Option<f64>>,
     /// Timings of the last solve.
     pub timings: Timings,
 }
@@ -314,6 +322,8 @@ impl Stokes {
             particles,
             cuts,
             reach,
+            fluid_base: None,
+            unconstrained: vec![None; n],
             timings: Timings::default(),
         };
         st.fixed = st.geometric_constraints();
@@ -343,6 +353,7 @@ impl Stokes {
             }
             self.matrix = build_pattern(&self.mesh, &self.layout, &self.reach);
             self.solver = None;
+            self.fluid_base = None;
             self.pattern_rebuilds += 1;
         }
         self.factored_values = None;
@@ -478,11 +489,25 @@ impl Stokes {
     }
 
     fn assemble(&mut self, f: &dyn Fn([f64; 2]) -> [f64; 2], stress: Option<&dyn PolymerStress>) {
-        self.matrix.zero();
-        self.rhs.iter_mut().for_each(|v| *v = 0.0);
         let lay = self.layout;
         let (eta, theta) = (self.params.eta, self.params.theta);
         let nd = 22 + if lay.with_g { 16 } else { 0 };
+        // without stress in the matrix, fluid elements contribute the same every step
+        let cached = stress.is_none_or(|ps| !ps.is_implicit());
+        if cached {
+            if self
+                .fluid_base
+                .as_ref()
+                .is_none_or(|b| (b.1, b.2) != (eta, theta))
+            {
+                self.fluid_base = Some((self.fluid_values(), eta, theta));
+            }
+            let base = &self.fluid_base.as_ref().expect("built above").0;
+            self.matrix.values.copy_from_slice(base);
+        } else {
+            self.matrix.zero();
+        }
+        self.rhs.iter_mut().for_each(|v| *v = 0.0);
         let mut dofs = Vec::with_capacity(MAX_EL_DOFS);
         let mut ke = [0.0; MAX_EL_DOFS * MAX_EL_DOFS];
         let mut fe = [0.0; MAX_EL_DOFS];
@@ -496,6 +521,9 @@ impl Stokes {
         for e in 0..self.mesh.n_elements() {
             element_dofs(&self.mesh, &lay, e, &mut dofs);
             let xe = &self.mesh.element_coords[e];
+            // outside every particle's reach an element is fluid while the pattern lasts and its
+            // matrix is in the base (built without the reach: no cancellation on cut rows)
+            let in_base = cached && !self.reach.iter().any(|r| r[e]);
             let cut = match &self.cuts[e] {
                 ElementCut::Inside => continue,
                 ElementCut::Fluid => None,
@@ -511,6 +539,28 @@ impl Stokes {
             ke.iter_mut().for_each(|v| *v = 0.0);
             fe.iter_mut().for_each(|v| *v = 0.0);
             match cut {
+                None if in_base => {
+                    // the matrix part is in the base: the loads only
+                    for (q, ((n2, dref), _)) in tab.iter().enumerate() {
+                        let (x, jac, det) = q2_map(xe, self.rule.points[q]);
+                        let w = self.rule.weights[q] * det;
+                        let force = f(x);
+                        for a in 0..9 {
+                            fe[2 * a] += w * n2[a] * force[0];
+                            fe[2 * a + 1] += w * n2[a] * force[1];
+                        }
+                        if let Some(ps) = stress {
+                            physical_gradients(&jac, det, dref, &mut dn);
+                            let lin = ps.at(e, self.rule.points[q], x, false);
+                            debug_assert!(lin.a.is_none() && lin.b_u.is_none());
+                            volume_terms(ke, fe, ndc, w, n2, &dn, &lin);
+                        }
+                    }
+                    for (a, &i) in dofs.iter().enumerate() {
+                        self.rhs[i] += fe[a];
+                    }
+                    continue;
+                }
                 None => {
                     for (q, ((n2, dref), psi)) in tab.iter().enumerate() {
                         let (x, jac, det) = q2_map(xe, self.rule.points[q]);
@@ -580,9 +630,41 @@ impl Stokes {
                 }
             }
             self.matrix
-                .scatter(&dofs, ke, fe, &mut self.rhs, &self.fixed);
+                .scatter(&dofs, ke, fe, &mut self.rhs, &self.unconstrained);
         }
+        self.matrix
+            .eliminate_constraints(&mut self.rhs, &self.fixed);
         self.matrix.apply_constraints(&mut self.rhs, &self.fixed);
+    }
+
+    /// Matrix values of the elements outside every reach (no stress, no constraints).
+    fn fluid_values(&mut self) -> Vec<f64> {
+        let lay = self.layout;
+        let (eta, theta) = (self.params.eta, self.params.theta);
+        let nd = 22 + if lay.with_g { 16 } else { 0 };
+        let tab: Vec<_> = self
+            .rule
+            .points
+            .iter()
+            .map(|&xi| (q2(xi), q1(xi).0))
+            .collect();
+        let mut dofs = Vec::with_capacity(MAX_EL_DOFS);
+        let mut ke = vec![0.0; nd * nd];
+        let zero = vec![0.0; nd];
+        let mut scratch = vec![0.0; lay.n_dofs()];
+        self.matrix.zero();
+        for e in 0..self.mesh.n_elements() {
+            if self.reach.iter().any(|r| r[e]) {
+                continue;
+            }
+            element_dofs(&self.mesh, &lay, e, &mut dofs);
+            fluid_element_matrix(
+                &self.mesh, &self.rule, &tab, e, eta, theta, lay.with_g, &mut ke,
+            );
+            self.matrix
+                .scatter(&dofs, &ke, &zero, &mut scratch, &self.unconstrained);
+        }
+        self.matrix.values.clone()
     }
 
     fn extract(&self, residual: f64) -> StokesSolution {
@@ -756,6 +838,46 @@ fn element_dofs(mesh: &Mesh, lay: &Layout, e: usize, dofs: &mut Vec<usize>) {
                 dofs.push(lay.g(v, ij));
             }
         }
+    }
+}
+
+/// Per Gauss point: Q2 values and reference gradients, Q1 values.
+type ShapeTable = (([f64; 9], [[f64; 2]; 9]), [f64; 4]);
+
+/// The Stokes matrix (viscous, DEVSS-G and pressure terms) of element `e` as fully fluid, into
+/// `ke` (`nd`×`nd`, local order of [`element_dofs`] without rigid-body slots).
+#[allow(clippy::too_many_arguments)]
+fn fluid_element_matrix(
+    mesh: &Mesh,
+    rule: &QuadRule,
+    tab: &[ShapeTable],
+    e: usize,
+    eta: f64,
+    theta: f64,
+    with_g: bool,
+    ke: &mut [f64],
+) {
+    let nd = 22 + if with_g { 16 } else { 0 };
+    let mut fe = [0.0; MAX_EL_DOFS];
+    let mut dn = [[0.0; 2]; 9];
+    ke.iter_mut().for_each(|v| *v = 0.0);
+    for (q, ((n2, dref), psi)) in tab.iter().enumerate() {
+        let (_, jac, det) = q2_map(&mesh.element_coords[e], rule.points[q]);
+        physical_gradients(&jac, det, dref, &mut dn);
+        let w = rule.weights[q] * det;
+        stokes_kernel(
+            ke,
+            &mut fe[..nd],
+            nd,
+            w,
+            eta,
+            theta,
+            n2,
+            &dn,
+            psi,
+            [0.0; 2],
+            with_g,
+        );
     }
 }
 
