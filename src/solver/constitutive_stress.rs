@@ -184,16 +184,22 @@ mod tests {
         let direct = gdt * (l.stretch(cx) - (u[0] * dcx))
             + model.modulus()
                 * (crate::rheology::relaxed_conformation(&model, cx, 0.1) - Sym2::IDENTITY);
-        let (a, bu, lr) = (lin.a.unwrap(), lin.b_u.unwrap(), l.to_rows());
+        // τ(u, L) = A:L + B·u + b
+        let lr = l.to_rows();
+        let affine = |lin: &StressLin, i: usize, j: usize| {
+            let (a, bu) = (lin.a.unwrap(), lin.b_u.unwrap());
+            let mut t = lin.b[i][j];
+            for k in 0..2 {
+                t += bu[i][j][k] * u[k];
+                for m in 0..2 {
+                    t += a[i][j][k][m] * lr[k][m];
+                }
+            }
+            t
+        };
         for i in 0..2 {
             for j in 0..2 {
-                let mut t = lin.b[i][j];
-                for k in 0..2 {
-                    t += bu[i][j][k] * u[k];
-                    for m in 0..2 {
-                        t += a[i][j][k][m] * lr[k][m];
-                    }
-                }
+                let t = affine(&lin, i, j);
                 assert!((t - direct.get(i, j)).abs() < ROUND_OFF, "{i}{j}: {t}");
             }
         }
@@ -215,16 +221,9 @@ mod tests {
         let c_next = (1.0 / 3.0) * (4.0 * cx - cpx)
             + d2 * (l.stretch(hat) - u[0] * dhat + model.relaxation(hat));
         let direct = g * (c_next - Sym2::IDENTITY);
-        let (a, bu) = (lin.a.unwrap(), lin.b_u.unwrap());
         for i in 0..2 {
             for j in 0..2 {
-                let mut t = lin.b[i][j];
-                for k in 0..2 {
-                    t += bu[i][j][k] * u[k];
-                    for m in 0..2 {
-                        t += a[i][j][k][m] * lr[k][m];
-                    }
-                }
+                let t = affine(&lin, i, j);
                 assert!((t - direct.get(i, j)).abs() < ROUND_OFF, "BDF2 {i}{j}: {t}");
             }
         }

@@ -511,12 +511,7 @@ impl Stokes {
         let mut dofs = Vec::with_capacity(MAX_EL_DOFS);
         let mut ke = [0.0; MAX_EL_DOFS * MAX_EL_DOFS];
         let mut fe = [0.0; MAX_EL_DOFS];
-        let tab: Vec<_> = self
-            .rule
-            .points
-            .iter()
-            .map(|&xi| (q2(xi), q1(xi).0))
-            .collect();
+        let tab = shape_table(&self.rule);
         let mut dn = [[0.0; 2]; 9];
         for e in 0..self.mesh.n_elements() {
             element_dofs(&self.mesh, &lay, e, &mut dofs);
@@ -642,12 +637,7 @@ impl Stokes {
         let lay = self.layout;
         let (eta, theta) = (self.params.eta, self.params.theta);
         let nd = 22 + if lay.with_g { 16 } else { 0 };
-        let tab: Vec<_> = self
-            .rule
-            .points
-            .iter()
-            .map(|&xi| (q2(xi), q1(xi).0))
-            .collect();
+        let tab = shape_table(&self.rule);
         let mut dofs = Vec::with_capacity(MAX_EL_DOFS);
         let mut ke = vec![0.0; nd * nd];
         let zero = vec![0.0; nd];
@@ -843,6 +833,10 @@ fn element_dofs(mesh: &Mesh, lay: &Layout, e: usize, dofs: &mut Vec<usize>) {
 
 /// Per Gauss point: Q2 values and reference gradients, Q1 values.
 type ShapeTable = (([f64; 9], [[f64; 2]; 9]), [f64; 4]);
+
+fn shape_table(rule: &QuadRule) -> Vec<ShapeTable> {
+    rule.points.iter().map(|&xi| (q2(xi), q1(xi).0)).collect()
+}
 
 /// The Stokes matrix (viscous, DEVSS-G and pressure terms) of element `e` as fully fluid, into
 /// `ke` (`nd`×`nd`, local order of [`element_dofs`] without rigid-body slots).
