@@ -332,7 +332,7 @@ impl Stokes {
 
     /// Moves the particles (same number, new centres and motions) and cuts: the pattern and the
     /// symbolic factorization are kept while every cut element lies in its particles' reach
-    /// (about [`RIGID_REACH`] element sizes of travel) and rebuilt around the new positions
+    /// (about two element sizes of travel) and rebuilt around the new positions
     /// otherwise. Wall velocities and the pressure pin are kept.
     ///
     /// # Panics
