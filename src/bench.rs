@@ -205,6 +205,7 @@ pub fn moving(
         h,
         l,
         wall_speed: 1.0,
+        drift: 0.0,
     };
     let params = ViscoelasticParams::new(0.1, 0.9, 1.0, 0.01, 0.01, 1.0);
     let mut sim = MovingParticles::new(

@@ -47,8 +47,8 @@ pub trait Domain: Send + Sync {
     }
 }
 
-/// Confined shear flow (thesis §5.6.1): walls at y = ±H/2 moving at ±U_w/2, periodic in x with
-/// period L centred on x = 0.
+/// Confined shear flow (thesis §5.6.1): walls at y = ±H/2 moving at drift ± U_w/2, periodic in
+/// x with period L centred on x = 0.
 #[derive(Debug, Clone, Copy)]
 pub struct ShearDomain {
     /// Channel height H.
@@ -57,6 +57,9 @@ pub struct ShearDomain {
     pub l: f64,
     /// Relative wall speed U_w (γ̇ = U_w/H).
     pub wall_speed: f64,
+    /// Velocity in x common to both walls (0 for the thesis' set-ups; −U puts a body moving at U
+    /// through fluid at rest into its own frame).
+    pub drift: f64,
 }
 
 impl Domain for ShearDomain {
@@ -65,9 +68,9 @@ impl Domain for ShearDomain {
     }
 
     fn apply_walls(&self, flow: &mut ViscoelasticFlow) {
-        let uw = 0.5 * self.wall_speed;
-        flow.set_velocity(Side::Bottom, |_| [-uw, 0.0]);
-        flow.set_velocity(Side::Top, |_| [uw, 0.0]);
+        let (uw, d) = (0.5 * self.wall_speed, self.drift);
+        flow.set_velocity(Side::Bottom, |_| [d - uw, 0.0]);
+        flow.set_velocity(Side::Top, |_| [d + uw, 0.0]);
         flow.pin_pressure();
     }
 

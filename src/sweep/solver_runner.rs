@@ -156,7 +156,12 @@ impl CaseRunner for SolverRunner {
                     Axis::uniform(-0.5 * h, 0.5 * h, ny),
                     true,
                 );
-                let domain = ShearDomain { h, l, wall_speed };
+                let domain = ShearDomain {
+                    h,
+                    l,
+                    wall_speed,
+                    drift: 0.0,
+                };
                 return run_moving(case, mesh, domain, obs);
             }
             Geometry::Couette {

@@ -7,14 +7,11 @@
 //!   a fine-Δt reference measures the time discretization alone: the temporary ALE map, BDF2
 //!   with an Euler first step and the predictor. Expected order 2 (Fig. 5.6).
 
-use crate::mesh::Side;
 use crate::mesh::{Axis, Mesh};
-use crate::particles::{find_contact, Contact};
 use crate::solver::ale::Remap;
 use crate::solver::constitutive_stress::Coupling;
-use crate::solver::moving::{Domain, MovingEnd, MovingError, MovingParticles, ShearDomain};
+use crate::solver::moving::{MovingEnd, MovingError, MovingParticles, ShearDomain};
 use crate::solver::rigid::{Motion, WeakForm};
-use crate::solver::viscoelastic::ViscoelasticFlow;
 use crate::solver::viscoelastic::ViscoelasticParams;
 use crate::xfem::CutOptions;
 
@@ -39,36 +36,6 @@ pub enum Frame {
     Cylinder,
 }
 
-/// Both walls (and hence the fluid far from the cylinder) moving at `wall_velocity` in x.
-#[derive(Debug, Clone, Copy)]
-struct SlidingChannel {
-    h: f64,
-    l: f64,
-    wall_velocity: f64,
-}
-
-impl Domain for SlidingChannel {
-    fn period(&self) -> Option<f64> {
-        Some(self.l)
-    }
-
-    fn apply_walls(&self, flow: &mut ViscoelasticFlow) {
-        let u = self.wall_velocity;
-        flow.set_velocity(Side::Bottom, |_| [u, 0.0]);
-        flow.set_velocity(Side::Top, |_| [u, 0.0]);
-        flow.pin_pressure();
-    }
-
-    fn contact(&self, x: &[[f64; 2]], radius: &[f64], min_gap: f64) -> Option<Contact> {
-        let walls = Some((-0.5 * self.h, 0.5 * self.h));
-        find_contact(x, radius, walls, Some(self.l), min_gap)
-    }
-
-    fn shear_rate(&self) -> f64 {
-        0.0
-    }
-}
-
 /// K(t) of the translating cylinder of thesis §5.4 with element size `h` around the cylinder's
 /// path and time step `dt`, up to t = λ, computed in `frame`: pairs (t, K).
 ///
@@ -82,34 +49,17 @@ pub fn translating_cylinder(
     remap: Remap,
     frame: Frame,
 ) -> Result<Vec<(f64, f64)>, MovingError> {
-    match frame {
-        Frame::Channel => {
-            let domain = ShearDomain {
-                h: 4.0,
-                l: 30.0,
-                wall_speed: 0.0,
-            };
-            run_cylinder(h, dt, cut, remap, domain, [1.0, 0.0])
-        }
-        Frame::Cylinder => {
-            let domain = SlidingChannel {
-                h: 4.0,
-                l: 30.0,
-                wall_velocity: -1.0,
-            };
-            run_cylinder(h, dt, cut, remap, domain, [0.0, 0.0])
-        }
-    }
-}
-
-fn run_cylinder<D: Domain>(
-    h: f64,
-    dt: f64,
-    cut: CutOptions,
-    remap: Remap,
-    domain: D,
-    velocity: [f64; 2],
-) -> Result<Vec<(f64, f64)>, MovingError> {
+    // the cylinder's velocity and the walls' in the chosen frame
+    let (velocity, drift) = match frame {
+        Frame::Channel => ([1.0, 0.0], 0.0),
+        Frame::Cylinder => ([0.0, 0.0], -1.0),
+    };
+    let domain = ShearDomain {
+        h: 4.0,
+        l: 30.0,
+        wall_speed: 0.0,
+        drift,
+    };
     // uniform h over the path x ∈ [−1, −0.5] plus a radius and a margin, graded toward the seam
     let ax = Axis::banded(-15.0, 15.0, -2.5, 1.0, h, 1.15);
     let ny = (4.0 / h).round() as usize;
