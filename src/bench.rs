@@ -174,7 +174,8 @@ pub struct MovingBench {
 /// One viscoelastic time step with `n` free particles in confined shear flow (thesis §5.7:
 /// H = 1, L = 4, a = 0.1, Giesekus Wi = 1, α = 0.01, β = 0.1, Δt = 0.01) on an `nx × ny` mesh:
 /// particles on the line through the origin of slope −0.2 spaced 0.5 apart (the three-particle
-/// start of §5.7.2 for n = 3), `warm_up` untimed steps, then medians over `steps` steps.
+/// start of §5.7.2 for n = 3), `warm_up` untimed steps, then medians over `steps` steps;
+/// explicit coupling with the lagged Gⁿ, or with G as flow unknowns if `coupled_g`.
 ///
 /// # Errors
 /// [`crate::solver::moving::MovingError`] if a step fails or particles touch.
@@ -184,6 +185,7 @@ pub fn moving(
     n: usize,
     warm_up: usize,
     steps: usize,
+    coupled_g: bool,
 ) -> Result<MovingBench, crate::solver::moving::MovingError> {
     use crate::solver::moving::{MovingError, MovingParticles, ShearDomain};
     use crate::solver::rigid::Motion;
@@ -207,7 +209,8 @@ pub fn moving(
         wall_speed: 1.0,
         drift: 0.0,
     };
-    let params = ViscoelasticParams::new(0.1, 0.9, 1.0, 0.01, 0.01, 1.0);
+    let mut params = ViscoelasticParams::new(0.1, 0.9, 1.0, 0.01, 0.01, 1.0);
+    params.coupled_g = coupled_g;
     let mut sim = MovingParticles::new(
         mesh,
         params,

@@ -73,7 +73,8 @@ pub enum Command {
         /// Linear solver.
         #[arg(long, value_enum, default_value_t = SolverArg::Lblt)]
         solver: SolverArg,
-        /// Include the DEVSS-G unknowns.
+        /// Include the DEVSS-G unknowns (stokes benchmark; moving benchmark: coupled DEVSS-G
+        /// instead of the lagged Gⁿ).
         #[arg(long)]
         with_g: bool,
         /// Repeated solves after the first (median reported).
@@ -200,7 +201,7 @@ pub fn run(cli: Cli) -> anyhow::Result<ExitCode> {
                 for m in mesh.split(',') {
                     let (nx, ny) = parse_mesh(m)?;
                     for &n in &particles {
-                        let b = crate::bench::moving(nx, ny, n, 3, repeats.max(1))?;
+                        let b = crate::bench::moving(nx, ny, n, 3, repeats.max(1), with_g)?;
                         println!("{}", b.to_row());
                     }
                 }
