@@ -178,6 +178,17 @@ fn rigid_reach(mesh: &Mesh, particles: &[Particle]) -> Vec<Vec<bool>> {
         .collect()
 }
 
+/// [`rigid_reach`] of the particles, or every element for every particle if that does not cover
+/// `cuts` (cuts not of these positions: a caller's choice).
+fn reach_for(mesh: &Mesh, particles: &[Particle], cuts: &[ElementCut]) -> Vec<Vec<bool>> {
+    let reach = rigid_reach(mesh, particles);
+    if reach_covers(&reach, cuts) {
+        reach
+    } else {
+        vec![vec![true; mesh.n_elements()]; particles.len()]
+    }
+}
+
 /// Whether every cut element's particles are coupled to it in the pattern.
 fn reach_covers(reach: &[Vec<bool>], cuts: &[ElementCut]) -> bool {
     cuts.iter().enumerate().all(|(e, c)| match c {
@@ -297,11 +308,7 @@ impl Stokes {
             with_g: params.theta > 0.0 && params.coupled_g,
             n_particles: particles.len(),
         };
-        let mut reach = rigid_reach(&mesh, &particles);
-        if !reach_covers(&reach, &cuts) {
-            // cuts not of these particles' positions (a caller's choice): couple every element
-            reach = vec![vec![true; mesh.n_elements()]; particles.len()];
-        }
+        let reach = reach_for(&mesh, &particles, &cuts);
         let matrix = build_pattern(&mesh, &layout, &reach);
         let n = layout.n_dofs();
         let mut st = Self {
@@ -347,10 +354,7 @@ impl Stokes {
         self.particles = particles;
         self.cuts = cuts;
         if !reach_covers(&self.reach, &self.cuts) {
-            self.reach = rigid_reach(&self.mesh, &self.particles);
-            if !reach_covers(&self.reach, &self.cuts) {
-                self.reach = vec![vec![true; self.mesh.n_elements()]; self.particles.len()];
-            }
+            self.reach = reach_for(&self.mesh, &self.particles, &self.cuts);
             self.matrix = build_pattern(&self.mesh, &self.layout, &self.reach);
             self.solver = None;
             self.fluid_base = None;
