@@ -711,14 +711,16 @@ impl ViscoelasticFlow {
             &flow,
             &mut self.history,
         )?;
-        // 4. project_conformation (cⁿ kept as c^{n−1} for the next step's stress predictor)
+        // 4. project_conformation (cⁿ kept as c^{n−1} for the semi-implicit stress predictor)
         let t1 = Instant::now();
-        let mut prev = self
-            .conformation_prev
-            .take()
-            .unwrap_or_else(|| vec![Sym2::IDENTITY; self.conformation.len()]);
-        std::mem::swap(&mut prev, &mut self.conformation);
-        self.conformation_prev = Some(prev);
+        if self.params.coupling == Coupling::SemiImplicit {
+            let mut prev = self
+                .conformation_prev
+                .take()
+                .unwrap_or_else(|| vec![Sym2::IDENTITY; self.conformation.len()]);
+            std::mem::swap(&mut prev, &mut self.conformation);
+            self.conformation_prev = Some(prev);
+        }
         self.projection.project_conformation(
             &self.mesh,
             &self.history.current,
