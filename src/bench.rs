@@ -188,7 +188,6 @@ pub fn moving(
     coupled_g: bool,
 ) -> Result<MovingBench, crate::solver::moving::MovingError> {
     use crate::solver::moving::{MovingError, MovingParticles, ShearDomain};
-    use crate::solver::rigid::Motion;
     use crate::solver::viscoelastic::ViscoelasticParams;
     let (h, l, a) = (1.0, 4.0, 0.1);
     let mesh = Mesh::rectangle(
@@ -211,13 +210,12 @@ pub fn moving(
     };
     let mut params = ViscoelasticParams::new(0.1, 0.9, 1.0, 0.01, 0.01, 1.0);
     params.coupled_g = coupled_g;
-    let mut sim = MovingParticles::new(
+    let mut sim = MovingParticles::free(
         mesh,
         params,
         domain,
         x0,
-        vec![a; n],
-        vec![Motion::Free; n],
+        a,
         crate::xfem::CutOptions::default(),
     )?;
     let mut reports = Vec::new();

@@ -303,4 +303,29 @@ mod tests {
         a.matvec(&[2.0, 2.0, 2.0], &mut y);
         assert_eq!(y, vec![2.0, 2.0, 0.0]);
     }
+
+    #[test]
+    fn eliminating_after_assembly_equals_eliminating_while_scattering() {
+        // non-symmetric 4-node chain with two constraints (one at each end)
+        let mut pb = PatternBuilder::new(4);
+        for g in [[0, 1], [1, 2], [2, 3]] {
+            pb.add_group(&g);
+        }
+        let mut a = pb.build();
+        let mut b = a.clone();
+        let fixed = [Some(1.5), None, None, Some(-0.5)];
+        let free = [None; 4];
+        let ke = [2.0, -0.7, -1.3, 3.0];
+        let fe = [0.25, -1.0];
+        let (mut ra, mut rb) = (vec![0.0; 4], vec![0.0; 4]);
+        for g in [[0, 1], [1, 2], [2, 3]] {
+            a.scatter(&g, &ke, &fe, &mut ra, &fixed);
+            b.scatter(&g, &ke, &fe, &mut rb, &free);
+        }
+        a.apply_constraints(&mut ra, &fixed);
+        b.eliminate_constraints(&mut rb, &fixed);
+        b.apply_constraints(&mut rb, &fixed);
+        assert_eq!(a.values, b.values);
+        assert_eq!(ra, rb);
+    }
 }

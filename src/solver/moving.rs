@@ -244,6 +244,30 @@ impl<D: Domain> MovingParticles<D> {
         })
     }
 
+    /// [`new`](Self::new) for `x0.len()` free particles of one radius.
+    ///
+    /// # Errors
+    /// As [`new`](Self::new).
+    pub fn free(
+        mesh: Mesh,
+        params: ViscoelasticParams,
+        domain: D,
+        x0: Vec<[f64; 2]>,
+        radius: f64,
+        cut: CutOptions,
+    ) -> Result<Self, MovingError> {
+        let n = x0.len();
+        Self::new(
+            mesh,
+            params,
+            domain,
+            x0,
+            vec![radius; n],
+            vec![Motion::Free; n],
+            cut,
+        )
+    }
+
     /// One time step; `Ok(Err(contact))` when the predicted particles would touch (the step is
     /// not taken).
     ///

@@ -251,21 +251,12 @@ fn run_moving<D: Domain>(
     let Some(a) = case.radius() else {
         return failed("no particles".into());
     };
-    let n = x0.len();
     let cut = CutOptions {
         level: case.numerics.quadtree_level,
         interface: InterfaceApprox::Linear,
     };
     let period = domain.period();
-    let mut sim = match MovingParticles::new(
-        mesh,
-        params,
-        domain,
-        x0,
-        vec![a; n],
-        vec![Motion::Free; n],
-        cut,
-    ) {
+    let mut sim = match MovingParticles::free(mesh, params, domain, x0, a, cut) {
         Ok(s) => s,
         Err(e) => {
             return CaseResult {
