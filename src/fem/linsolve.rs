@@ -338,9 +338,12 @@ pub struct DofBlocks {
     pub block: Vec<u32>,
     /// Elimination class of each dof inside its block (lower first).
     pub class: Vec<u8>,
+    /// Elimination order of the blocks (a permutation of 0..n_blocks, e.g. a nested dissection
+    /// of the mesh); `None`: AMD on the block graph.
+    pub order: Option<Vec<u32>>,
 }
 
-/// AMD on the block graph of `a`, expanded to dofs; returns (forward, inverse) permutations
+/// Block order (given, or AMD on the block graph of `a`) expanded to dofs; returns (forward, inverse) permutations
 /// (`forward[new] = old`).
 fn block_amd_ordering(
     a: &SparseMatrix,
@@ -354,6 +357,38 @@ fn block_amd_ordering(
         .map(|&b| b as usize + 1)
         .max()
         .unwrap_or(0);
+    let bperm: Vec<usize> = match &blocks.order {
+        Some(order) => {
+            assert_eq!(
+                order.len(),
+                nb,
+                "the block order is a permutation of the blocks"
+            );
+            order.iter().map(|&b| b as usize).collect()
+        }
+        None => block_amd(a, blocks, nb)?,
+    };
+    // dofs of each block, sorted by (class, dof)
+    let mut members: Vec<Vec<usize>> = vec![Vec::new(); nb];
+    for d in 0..n {
+        members[blocks.block[d] as usize].push(d);
+    }
+    let mut fwd = Vec::with_capacity(n);
+    for &b in &bperm {
+        let m = &mut members[b];
+        m.sort_by_key(|&d| (blocks.class[d], d));
+        fwd.extend_from_slice(m);
+    }
+    let mut inv = vec![0usize; n];
+    for (new, &old) in fwd.iter().enumerate() {
+        inv[old] = new;
+    }
+    Ok((fwd, inv))
+}
+
+/// AMD on the block graph of `a` (blocks numbered 0..nb); returns the block order.
+fn block_amd(a: &SparseMatrix, blocks: &DofBlocks, nb: usize) -> Result<Vec<usize>, SolveError> {
+    let n = a.n();
     let mut adj: Vec<Vec<u32>> = vec![Vec::new(); nb];
     let sym = a.symbolic();
     for j in 0..n {
@@ -390,22 +425,7 @@ fn block_amd_ordering(
         MemStack::new(&mut buf),
     )
     .map_err(|e| SolveError::Symbolic(format!("block AMD: {e:?}")))?;
-    // dofs of each block, sorted by (class, dof)
-    let mut members: Vec<Vec<usize>> = vec![Vec::new(); nb];
-    for d in 0..n {
-        members[blocks.block[d] as usize].push(d);
-    }
-    let mut fwd = Vec::with_capacity(n);
-    for &b in &bperm {
-        let m = &mut members[b];
-        m.sort_by_key(|&d| (blocks.class[d], d));
-        fwd.extend_from_slice(m);
-    }
-    let mut inv = vec![0usize; n];
-    for (new, &old) in fwd.iter().enumerate() {
-        inv[old] = new;
-    }
-    Ok((fwd, inv))
+    Ok(bperm)
 }
 
 /// r = b − A x; returns ‖r‖/‖b‖ (or ‖r‖ if b = 0).

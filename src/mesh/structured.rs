@@ -299,6 +299,88 @@ impl Mesh {
             })
             .fold(f64::INFINITY, f64::min)
     }
+
+    /// Nodes in a geometric nested-dissection elimination order: the node lattice is split by a
+    /// column or row of nodes on element edges (which no element crosses), the two halves are
+    /// ordered recursively and the separator after them; regions of at most `leaf` nodes keep
+    /// the natural order. On a periodic direction the seam is the outermost separator.
+    pub fn nested_dissection(&self, leaf: usize) -> Vec<usize> {
+        let n_rows = 2 * self.ay.len() + 1;
+        let cols = self.n_node_cols;
+        let mut order = Vec::with_capacity(self.n_nodes());
+        let id = |i: usize, j: usize| i + cols * j;
+        let i_lo = usize::from(self.periodic);
+        dissect([i_lo, cols], [0, n_rows], leaf.max(1), &id, &mut order);
+        if self.periodic {
+            // the seam: mid-side nodes, then vertices (as in `dissect`)
+            order.extend((1..n_rows).step_by(2).map(|j| id(0, j)));
+            order.extend((0..n_rows).step_by(2).map(|j| id(0, j)));
+        }
+        debug_assert_eq!(order.len(), self.n_nodes());
+        order
+    }
+}
+
+/// Appends the nodes of a lattice region, non-vertex nodes before vertex nodes: a vertex carries the
+/// pressure, whose diagonal is zero until the velocities it couples to are eliminated (the LBLᵀ
+/// pivots only within a supernode).
+fn emit(i: [usize; 2], j: [usize; 2], id: &dyn Fn(usize, usize) -> usize, order: &mut Vec<usize>) {
+    for vertices in [false, true] {
+        for b in j[0]..j[1] {
+            for a in i[0]..i[1] {
+                if (a % 2 == 0 && b % 2 == 0) == vertices {
+                    order.push(id(a, b));
+                }
+            }
+        }
+    }
+}
+
+/// Orders the nodes of the lattice region `i ∈ [i[0], i[1])`, `j ∈ [j[0], j[1])` (half-open) for
+/// [`Mesh::nested_dissection`]. Separators are even lattice lines strictly inside the region.
+fn dissect(
+    i: [usize; 2],
+    j: [usize; 2],
+    leaf: usize,
+    id: &dyn Fn(usize, usize) -> usize,
+    order: &mut Vec<usize>,
+) {
+    let (ni, nj) = (i[1] - i[0], j[1] - j[0]);
+    if ni == 0 || nj == 0 {
+        return;
+    }
+    // an even line strictly inside [lo, hi): lo < s < hi − 1 keeps both sides non-empty
+    let split = |lo: usize, hi: usize| -> Option<usize> {
+        let mid = (lo + hi) / 2;
+        [mid & !1, (mid & !1) + 2]
+            .into_iter()
+            .filter(|&s| s > lo && s + 1 < hi)
+            .min_by_key(|&s| s.abs_diff(mid))
+    };
+    let cut = if ni * nj <= leaf {
+        None
+    } else if ni >= nj {
+        split(i[0], i[1])
+            .map(|s| (0, s))
+            .or_else(|| split(j[0], j[1]).map(|s| (1, s)))
+    } else {
+        split(j[0], j[1])
+            .map(|s| (1, s))
+            .or_else(|| split(i[0], i[1]).map(|s| (0, s)))
+    };
+    match cut {
+        None => emit(i, j, id, order),
+        Some((0, s)) => {
+            dissect([i[0], s], j, leaf, id, order);
+            dissect([s + 1, i[1]], j, leaf, id, order);
+            emit([s, s + 1], j, id, order);
+        }
+        Some((_, s)) => {
+            dissect(i, [j[0], s], leaf, id, order);
+            dissect(i, [s + 1, j[1]], leaf, id, order);
+            emit(i, [s, s + 1], id, order);
+        }
+    }
 }
 
 /// Reference coordinates ξ with X(ξ) = x for the Q2 map of the element nodes `xe`, by Newton's
@@ -458,6 +540,41 @@ mod tests {
                 if k == 4 {
                     assert_eq!(f, e, "an element's centre node is its own");
                 }
+            }
+        }
+    }
+
+    #[test]
+    fn nested_dissection_is_a_permutation_ending_with_its_separators() {
+        for periodic in [false, true] {
+            let m = Mesh::rectangle(
+                Axis::uniform(0.0, 4.0, 12),
+                Axis::uniform(0.0, 1.0, 3),
+                periodic,
+            );
+            let order = m.nested_dissection(4);
+            let mut seen = vec![false; m.n_nodes()];
+            for &k in &order {
+                assert!(!seen[k], "node {k} twice");
+                seen[k] = true;
+            }
+            assert!(seen.iter().all(|&s| s), "every node ordered");
+            // the outermost separators come last: a whole node column each (7 nodes high),
+            // mid-side nodes before vertices
+            let tail: Vec<(usize, usize)> = order[order.len() - 7..]
+                .iter()
+                .map(|&k| m.node_ij(k))
+                .collect();
+            let col = if periodic { 0 } else { 12 };
+            assert!(tail.iter().all(|&(i, _)| i == col), "{tail:?}");
+            let js: Vec<usize> = tail.iter().map(|&(_, j)| j).collect();
+            assert_eq!(js, [1, 3, 5, 0, 2, 4, 6]);
+            // the periodic strip opened at the seam is then cut in the middle
+            if periodic {
+                let mid = order[order.len() - 14..order.len() - 7].to_vec();
+                let i_mid = m.node_ij(mid[0]).0;
+                assert!(mid.iter().all(|&k| m.node_ij(k).0 == i_mid));
+                assert_eq!(i_mid % 2, 0, "separators lie on element edges");
             }
         }
     }
