@@ -152,11 +152,12 @@ pub enum Layout {
 pub struct Numerics {
     /// Number of elements [n1, n2]: along x and y (channels) or radial × azimuthal (Couette).
     pub mesh: [usize; 2],
-    /// Ratio of the largest to the smallest element size across the channel (graded towards the centre
-    /// line, thesis Fig. 5.25); 1 = uniform.
+    /// Ratio (≥ 1) of the largest to the smallest element size across the channel, finest at the
+    /// centre line (thesis Fig. 5.25; Couette: at mid-gap); 1 = uniform.
     #[serde(default = "one")]
     pub grading: f64,
-    /// Refine around particles with the grid deformation method (thesis 3.3.4).
+    /// Refine around particles with the grid deformation method (thesis 3.3.4). Not implemented:
+    /// `true` is refused by validation, so that a case never runs silently without it.
     #[serde(default)]
     pub grid_deformation: bool,
     /// Time step Δt > 0.

@@ -193,3 +193,19 @@ fn cylinder_channel_has_no_particles() {
     w["particles"] = json!({"radius": 0.1, "layout": {"pair": {"lx": 0.5, "ly": 0.1}}});
     assert_eq!(field_of(w), "particles");
 }
+
+#[test]
+fn grading_below_one_and_grid_deformation_are_refused() {
+    let with = |k: &str, x: Value| {
+        let mut v = shear();
+        v["numerics"][k] = x;
+        v
+    };
+    assert_eq!(field_of(with("grading", json!(0.5))), "numerics.grading");
+    assert_eq!(field_of(with("grading", json!(0.0))), "numerics.grading");
+    let e = CaseSpec::from_value(with("grid_deformation", json!(true))).expect_err("refused");
+    assert_eq!(e.field, "numerics.grid_deformation");
+    assert!(e.message.contains("not implemented"), "{}", e.message);
+    assert!(CaseSpec::from_value(with("grading", json!(3.0))).is_ok());
+    assert!(CaseSpec::from_value(with("grid_deformation", json!(false))).is_ok());
+}

@@ -155,7 +155,22 @@ impl CaseSpec {
                 "both element counts must be ≥ 1",
             ));
         }
-        positive("numerics.grading", n.grading)?;
+        if !(n.grading >= 1.0 && n.grading.is_finite()) {
+            return Err(SpecError::new(
+                "numerics.grading",
+                format!(
+                    "the ratio of the largest to the smallest element across the channel must be ≥ 1 (got {})",
+                    n.grading
+                ),
+            ));
+        }
+        if n.grid_deformation {
+            return Err(SpecError::new(
+                "numerics.grid_deformation",
+                "the grid deformation method (thesis 3.3.4) is not implemented; remove the field \
+                 (or use numerics.grading to refine the centre of the channel)",
+            ));
+        }
         positive("numerics.dt", n.dt)?;
         positive("numerics.t_end", n.t_end)?;
         if n.t_end < n.dt {

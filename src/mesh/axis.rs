@@ -56,6 +56,17 @@ impl Axis {
         Self { vertices }
     }
 
+    /// `n` elements on [a, b], finest at the centre and graded symmetrically toward both ends so
+    /// that the largest element is about `ratio` times the smallest ([`graded`](Self::graded)
+    /// with k = 2 acosh(ratio)); `ratio = 1` is uniform.
+    ///
+    /// # Panics
+    /// Panics if `ratio < 1` or as [`graded`](Self::graded).
+    pub fn centred(a: f64, b: f64, n: usize, ratio: f64) -> Self {
+        assert!(ratio >= 1.0, "Axis::centred: ratio {ratio} < 1");
+        Self::graded(a, b, n, 0.5 * (a + b), 2.0 * ratio.acosh())
+    }
+
     /// Uniform elements of size ≈ `h` on the band [lo, hi] ⊂ [a, b], and outside it elements
     /// growing geometrically by `growth` (≥ 1) toward the ends, scaled to end exactly at a and b.
     /// For resolving a region (a particle's neighbourhood) without refining the whole domain.
@@ -201,5 +212,24 @@ mod tests {
         }
         assert_eq!(ax.locate(1.0), 9);
         assert_eq!(ax.locate(0.0), 0);
+    }
+
+    #[test]
+    fn centred_axis_is_symmetric_with_the_requested_size_ratio() {
+        let ax = Axis::centred(-0.5, 0.5, 40, 3.0);
+        let sizes: Vec<f64> = ax.vertices.windows(2).map(|w| w[1] - w[0]).collect();
+        for (a, b) in sizes.iter().zip(sizes.iter().rev()) {
+            assert!((a - b).abs() < 1e-12, "symmetric");
+        }
+        let (lo, hi) = sizes.iter().fold((f64::INFINITY, 0.0_f64), |(lo, hi), &s| {
+            (lo.min(s), hi.max(s))
+        });
+        assert!((sizes[19] - lo).abs() < 1e-15, "finest at the centre");
+        // the continuous map's ratio is exactly 3; 40 elements sample it to within 5 %
+        assert!((hi / lo - 3.0).abs() < 0.15, "ratio {}", hi / lo);
+        assert_eq!(
+            Axis::centred(0.0, 1.0, 8, 1.0).vertices,
+            Axis::uniform(0.0, 1.0, 8).vertices
+        );
     }
 }

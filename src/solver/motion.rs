@@ -29,6 +29,8 @@ pub struct ShearCase {
     pub x0: Vec<[f64; 2]>,
     /// Elements in x and y (uniform).
     pub mesh: [usize; 2],
+    /// Largest / smallest element height across the channel, finest at the centre line (1 = uniform).
+    pub grading: f64,
     /// Time step.
     pub dt: f64,
     /// End time.
@@ -103,11 +105,11 @@ fn wrap(x: f64, l: f64) -> f64 {
 }
 
 impl ShearCase {
-    /// The (uniform) mesh of the channel.
+    /// The mesh of the channel: uniform along it, graded across it by `grading`.
     pub fn build_mesh(&self) -> Mesh {
         Mesh::rectangle(
             Axis::uniform(-0.5 * self.l, 0.5 * self.l, self.mesh[0]),
-            Axis::uniform(-0.5 * self.h, 0.5 * self.h, self.mesh[1]),
+            Axis::centred(-0.5 * self.h, 0.5 * self.h, self.mesh[1], self.grading),
             true,
         )
     }

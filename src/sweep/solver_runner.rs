@@ -42,6 +42,7 @@ impl SolverRunner {
             radius: vec![a; x0.len()],
             x0,
             mesh: case.numerics.mesh,
+            grading: case.numerics.grading,
             dt: case.numerics.dt,
             t_end: case.numerics.t_end,
             cut: CutOptions {
@@ -153,7 +154,7 @@ impl CaseRunner for SolverRunner {
                 let [nx, ny] = case.numerics.mesh;
                 let mesh = Mesh::rectangle(
                     Axis::uniform(-0.5 * l, 0.5 * l, nx),
-                    Axis::uniform(-0.5 * h, 0.5 * h, ny),
+                    Axis::centred(-0.5 * h, 0.5 * h, ny, case.numerics.grading),
                     true,
                 );
                 let domain = ShearDomain {
@@ -175,7 +176,9 @@ impl CaseRunner for SolverRunner {
                 };
                 // numerics.mesh is [radial, azimuthal]
                 let [n_r, n_theta] = case.numerics.mesh;
-                return run_moving(case, g.build_mesh(n_theta, n_r), g, obs);
+                let mesh =
+                    Mesh::annulus(n_theta, Axis::centred(r1, r2, n_r, case.numerics.grading));
+                return run_moving(case, mesh, g, obs);
             }
             _ => {}
         }
