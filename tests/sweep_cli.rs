@@ -204,6 +204,24 @@ fn sweep_then_query_and_status() {
         v,
         serde_json::json!([{"Wi": 1.0, "N=3": "-"}, {"Wi": 2.0, "N=3": "+"}])
     );
+    // Final states: one row per particle of each decided case, a gap to the next particle for
+    // all but the last along the chain.
+    let (code, json) = q(QueryWhat::Final, vec![], Format::Json);
+    assert_eq!(code, ExitCode::SUCCESS);
+    let rows: Vec<serde_json::Value> = serde_json::from_str(&json).unwrap();
+    assert_eq!(rows.len(), 6, "{json}");
+    for case in rows.chunks(3) {
+        let idx: Vec<_> = case.iter().map(|r| r["particle"].as_i64()).collect();
+        assert_eq!(idx, [Some(0), Some(1), Some(2)], "{json}");
+        assert!(case
+            .iter()
+            .all(|r| r["x"].is_number() && r["omega_star"].is_number()));
+        let gaps = case
+            .iter()
+            .filter(|r| r["gap_next_over_a"].is_number())
+            .count();
+        assert_eq!(gaps, 2, "{json}");
+    }
     // A filter value that looks like SQL is just a value.
     let (code, csv) = q(QueryWhat::Cases, vec!["label=x' OR '1'='1"], Format::Csv);
     assert_eq!(code, ExitCode::SUCCESS);

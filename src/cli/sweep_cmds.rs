@@ -52,6 +52,9 @@ pub enum QueryWhat {
     FinalR,
     /// One row per case with status and outcome.
     Cases,
+    /// Final state of every particle of every decided case: position, ω*, gap to the next particle
+    /// along the chain (thesis 5.6.3 final positions, 5.7.2 terminal ω* and gaps).
+    Final,
     /// Raw samples of one case (`--case ID`).
     Trajectory,
 }
@@ -185,6 +188,7 @@ pub fn run_query_to(args: &QueryArgs, out: &mut dyn Write) -> anyhow::Result<Exi
         QueryWhat::Strings => QueryKind::StringFormation,
         QueryWhat::Regime => QueryKind::Regime,
         QueryWhat::Cases => QueryKind::Cases,
+        QueryWhat::Final => QueryKind::Final,
         QueryWhat::FinalR => match FILTER_COLUMNS.iter().find(|c| **c == args.by) {
             Some(c) => QueryKind::FinalRStar(c),
             None => {

@@ -85,6 +85,8 @@ pub enum QueryKind {
     FinalRStar(&'static str),
     /// One row per case with its status and outcome.
     Cases,
+    /// One row per particle of each decided case: its final position, ω* and gap.
+    Final,
     /// Samples of the case with this id (hash prefix accepted).
     Trajectory(String),
 }
@@ -224,6 +226,65 @@ impl Store {
                 Ok(Table {
                     columns: cols.iter().map(|c| c.to_string()).collect(),
                     rows: self.rows(&sql, &args)?,
+                })
+            }
+            QueryKind::Final => {
+                let sql = format!(
+                    "SELECT c.case_hash, c.label, c.kind, c.t_decided, c.final_json
+                     FROM case_outcomes c{cond} AND c.kind IS NOT NULL ORDER BY c.id"
+                );
+                let mut rows = Vec::new();
+                for r in self.rows(&sql, &args)? {
+                    let state: Value = r[4]
+                        .as_str()
+                        .and_then(|s| serde_json::from_str(s).ok())
+                        .unwrap_or(Value::Null);
+                    let at =
+                        |key: &str, i: usize| state[key].get(i).cloned().unwrap_or(Value::Null);
+                    let positions = state["positions"].as_array().cloned().unwrap_or_default();
+                    let x_of = |i: usize| positions[i].get(0).and_then(Value::as_f64);
+                    // gaps_over_a[k] is between the k-th and (k+1)-th particle ordered by x (as the
+                    // classifier orders the chain): give it to the k-th as its gap to the next
+                    let mut by_x: Vec<usize> = (0..positions.len()).collect();
+                    by_x.sort_by(|&i, &j| {
+                        x_of(i)
+                            .unwrap_or(f64::NAN)
+                            .total_cmp(&x_of(j).unwrap_or(f64::NAN))
+                    });
+                    let mut gap_next = vec![Value::Null; positions.len()];
+                    for (k, &i) in by_x.iter().enumerate() {
+                        gap_next[i] = at("gaps_over_a", k);
+                    }
+                    for (i, p) in positions.iter().enumerate() {
+                        rows.push(vec![
+                            r[0].clone(),
+                            r[1].clone(),
+                            r[2].clone(),
+                            r[3].clone(),
+                            json!(i),
+                            p.get(0).cloned().unwrap_or(Value::Null),
+                            p.get(1).cloned().unwrap_or(Value::Null),
+                            at("omega_star", i),
+                            gap_next[i].clone(),
+                            at("r_star", i),
+                        ]);
+                    }
+                }
+                let cols = [
+                    "case",
+                    "label",
+                    "kind",
+                    "t_decided",
+                    "particle",
+                    "x",
+                    "y",
+                    "omega_star",
+                    "gap_next_over_a",
+                    "r_star",
+                ];
+                Ok(Table {
+                    columns: cols.iter().map(|c| c.to_string()).collect(),
+                    rows,
                 })
             }
             QueryKind::Trajectory(hash) => {
