@@ -304,88 +304,199 @@ impl Mesh {
     /// column or row of nodes on element edges (which no element crosses), the two halves are
     /// ordered recursively and the separator after them; regions of at most `leaf` nodes keep
     /// the natural order. On a periodic direction the seam is the outermost separator.
-    pub fn nested_dissection(&self, leaf: usize) -> Vec<usize> {
-        let n_rows = 2 * self.ay.len() + 1;
+    ///
+    /// `coupled(e, o)`: whether the face between neighbouring elements `e` and `o` couples all
+    /// their nodes in the matrix (a ghost-penalty patch). A separator line crossing such a face
+    /// takes the nodes of both elements too, so that it still separates.
+    pub fn nested_dissection(
+        &self,
+        leaf: usize,
+        coupled: &dyn Fn(usize, usize) -> bool,
+    ) -> Vec<usize> {
+        let nd = Dissection {
+            mesh: self,
+            leaf: leaf.max(1),
+            coupled,
+        };
+        let rows = 2 * self.ay.len() + 1;
         let cols = self.n_node_cols;
+        let mut taken = vec![false; self.n_nodes()];
         let mut order = Vec::with_capacity(self.n_nodes());
-        let id = |i: usize, j: usize| i + cols * j;
-        let i_lo = usize::from(self.periodic);
-        dissect([i_lo, cols], [0, n_rows], leaf.max(1), &id, &mut order);
         if self.periodic {
-            // the seam: mid-side nodes, then vertices (as in `dissect`)
-            order.extend((1..n_rows).step_by(2).map(|j| id(0, j)));
-            order.extend((0..n_rows).step_by(2).map(|j| id(0, j)));
+            // the seam: line i = 0 of the unwrapped lattice [0, 2·nx]
+            let seam = nd.separator_in(0, Dir::Column, [0, cols + 1], [0, rows], &mut taken);
+            nd.dissect([1, cols], [0, rows], &mut taken, &mut order);
+            nd.emit_list(&seam, &mut order);
+        } else {
+            nd.dissect([0, cols], [0, rows], &mut taken, &mut order);
         }
         debug_assert_eq!(order.len(), self.n_nodes());
         order
     }
 }
 
-/// Appends the nodes of a lattice region, non-vertex nodes before vertex nodes: a vertex carries the
-/// pressure, whose diagonal is zero until the velocities it couples to are eliminated (the LBLᵀ
-/// pivots only within a supernode).
-fn emit(i: [usize; 2], j: [usize; 2], id: &dyn Fn(usize, usize) -> usize, order: &mut Vec<usize>) {
-    for vertices in [false, true] {
-        for b in j[0]..j[1] {
-            for a in i[0]..i[1] {
+/// Direction of a separator line of [`Mesh::nested_dissection`].
+#[derive(Clone, Copy, PartialEq, Eq)]
+enum Dir {
+    /// A line of constant i (lattice column).
+    Column,
+    /// A line of constant j (lattice row).
+    Row,
+}
+
+/// State of [`Mesh::nested_dissection`]. Lattice ranges are half-open; a periodic lattice is
+/// addressed unwrapped (i up to 2·nx, where i = 2·nx is the seam i = 0 again).
+struct Dissection<'a> {
+    mesh: &'a Mesh,
+    leaf: usize,
+    coupled: &'a dyn Fn(usize, usize) -> bool,
+}
+
+impl Dissection<'_> {
+    fn id(&self, i: usize, j: usize) -> usize {
+        i % self.mesh.n_node_cols + self.mesh.n_node_cols * j
+    }
+
+    /// Orders the free nodes of the region `i ∈ [i[0], i[1])`, `j ∈ [j[0], j[1])`.
+    fn dissect(&self, i: [usize; 2], j: [usize; 2], taken: &mut [bool], order: &mut Vec<usize>) {
+        let (ni, nj) = (i[1].saturating_sub(i[0]), j[1].saturating_sub(j[0]));
+        if ni == 0 || nj == 0 {
+            return;
+        }
+        // an even line strictly inside [lo, hi): lo < s < hi − 1 keeps both sides non-empty
+        let split = |lo: usize, hi: usize| -> Option<usize> {
+            let mid = (lo + hi) / 2;
+            [mid & !1, (mid & !1) + 2]
+                .into_iter()
+                .filter(|&s| s > lo && s + 1 < hi)
+                .min_by_key(|&s| s.abs_diff(mid))
+        };
+        let cut = if ni * nj <= self.leaf {
+            None
+        } else if ni >= nj {
+            split(i[0], i[1])
+                .map(|s| (Dir::Column, s))
+                .or_else(|| split(j[0], j[1]).map(|s| (Dir::Row, s)))
+        } else {
+            split(j[0], j[1])
+                .map(|s| (Dir::Row, s))
+                .or_else(|| split(i[0], i[1]).map(|s| (Dir::Column, s)))
+        };
+        match cut {
+            None => {
+                let mut region = Vec::new();
+                for b in j[0]..j[1] {
+                    for a in i[0]..i[1] {
+                        let k = self.id(a, b);
+                        if !taken[k] {
+                            taken[k] = true;
+                            region.push(k);
+                        }
+                    }
+                }
+                self.emit_list(&region, order);
+            }
+            Some((Dir::Column, s)) => {
+                let sep = self.separator_in(s, Dir::Column, i, j, taken);
+                self.dissect([i[0], s], j, taken, order);
+                self.dissect([s + 1, i[1]], j, taken, order);
+                self.emit_list(&sep, order);
+            }
+            Some((Dir::Row, s)) => {
+                let sep = self.separator_in(s, Dir::Row, i, j, taken);
+                self.dissect(i, [j[0], s], taken, order);
+                self.dissect(i, [s + 1, j[1]], taken, order);
+                self.emit_list(&sep, order);
+            }
+        }
+    }
+
+    /// The free nodes of line `s` (direction `dir`) within the region, plus the free nodes of the
+    /// element pairs across it whose face is coupled; all reserved (`taken`).
+    fn separator_in(
+        &self,
+        s: usize,
+        dir: Dir,
+        i: [usize; 2],
+        j: [usize; 2],
+        taken: &mut [bool],
+    ) -> Vec<usize> {
+        let (nx, ny) = self.mesh.dims();
+        let mut sep = Vec::new();
+        let mut take = |a: usize, b: usize, sep: &mut Vec<usize>| {
+            if a >= i[0] && a < i[1] && b >= j[0] && b < j[1] {
+                let k = self.id(a, b);
+                if !taken[k] {
+                    taken[k] = true;
+                    sep.push(k);
+                }
+            }
+        };
+        match dir {
+            Dir::Column => {
+                for b in j[0]..j[1] {
+                    take(s, b, &mut sep);
+                }
+                // element columns either side of the line (the seam s = 0: nx − 1 and 0)
+                let (el, er) = ((s / 2 + nx - 1) % nx, (s / 2) % nx);
+                let centre = if s == 0 { 2 * nx } else { s };
+                for ey in 0..ny {
+                    if 2 * ey + 2 < j[0] || 2 * ey >= j[1] {
+                        continue;
+                    }
+                    if !(self.coupled)(ey * nx + el, ey * nx + er) {
+                        continue;
+                    }
+                    for b in 2 * ey..=2 * ey + 2 {
+                        for a in centre - 2..=centre + 2 {
+                            // beyond the seam: the first columns again
+                            let a = if a > 2 * nx { a - 2 * nx } else { a };
+                            take(a, b, &mut sep);
+                        }
+                    }
+                }
+            }
+            Dir::Row => {
+                for a in i[0]..i[1] {
+                    take(a, s, &mut sep);
+                }
+                let (eb, et) = (s / 2 - 1, s / 2);
+                for ex in 0..nx {
+                    if 2 * ex + 2 < i[0] || 2 * ex >= i[1] {
+                        continue;
+                    }
+                    if !(self.coupled)(eb * nx + ex, et * nx + ex) {
+                        continue;
+                    }
+                    for b in s - 2..=s + 2 {
+                        for a in 2 * ex..=2 * ex + 2 {
+                            take(a, b, &mut sep);
+                        }
+                    }
+                }
+            }
+        }
+        sep
+    }
+
+    /// Appends `nodes`, mid-side and centre nodes before vertices: a vertex carries the pressure,
+    /// whose diagonal is zero until the velocities it couples to are eliminated (the LBLᵀ pivots
+    /// only within a supernode).
+    fn emit_list(&self, nodes: &[usize], order: &mut Vec<usize>) {
+        for vertices in [false, true] {
+            for &k in nodes {
+                let (a, b) = self.mesh.node_ij(k);
                 if (a % 2 == 0 && b % 2 == 0) == vertices {
-                    order.push(id(a, b));
+                    order.push(k);
                 }
             }
         }
     }
 }
 
-/// Orders the nodes of the lattice region `i ∈ [i[0], i[1])`, `j ∈ [j[0], j[1])` (half-open) for
-/// [`Mesh::nested_dissection`]. Separators are even lattice lines strictly inside the region.
-fn dissect(
-    i: [usize; 2],
-    j: [usize; 2],
-    leaf: usize,
-    id: &dyn Fn(usize, usize) -> usize,
-    order: &mut Vec<usize>,
-) {
-    let (ni, nj) = (i[1] - i[0], j[1] - j[0]);
-    if ni == 0 || nj == 0 {
-        return;
-    }
-    // an even line strictly inside [lo, hi): lo < s < hi − 1 keeps both sides non-empty
-    let split = |lo: usize, hi: usize| -> Option<usize> {
-        let mid = (lo + hi) / 2;
-        [mid & !1, (mid & !1) + 2]
-            .into_iter()
-            .filter(|&s| s > lo && s + 1 < hi)
-            .min_by_key(|&s| s.abs_diff(mid))
-    };
-    let cut = if ni * nj <= leaf {
-        None
-    } else if ni >= nj {
-        split(i[0], i[1])
-            .map(|s| (0, s))
-            .or_else(|| split(j[0], j[1]).map(|s| (1, s)))
-    } else {
-        split(j[0], j[1])
-            .map(|s| (1, s))
-            .or_else(|| split(i[0], i[1]).map(|s| (0, s)))
-    };
-    match cut {
-        None => emit(i, j, id, order),
-        Some((0, s)) => {
-            dissect([i[0], s], j, leaf, id, order);
-            dissect([s + 1, i[1]], j, leaf, id, order);
-            emit([s, s + 1], j, id, order);
-        }
-        Some((_, s)) => {
-            dissect(i, [j[0], s], leaf, id, order);
-            dissect(i, [s + 1, j[1]], leaf, id, order);
-            emit(i, [s, s + 1], id, order);
-        }
-    }
-}
-
 /// Reference coordinates ξ with X(ξ) = x for the Q2 map of the element nodes `xe`, by Newton's
 /// method from `guess` (ξ may leave [−1, 1]²: the caller decides what that means).
-fn invert_q2_map(xe: &[[f64; 2]; 9], x: [f64; 2], guess: [f64; 2]) -> [f64; 2] {
+pub(crate) fn invert_q2_map(xe: &[[f64; 2]; 9], x: [f64; 2], guess: [f64; 2]) -> [f64; 2] {
     // Newton converges quadratically from the polar guess; the step tolerance is round-off of ξ.
     const STEP_TOL: f64 = 1e-15;
     const MAX_ITER: usize = 20;
@@ -552,7 +663,7 @@ mod tests {
                 Axis::uniform(0.0, 1.0, 3),
                 periodic,
             );
-            let order = m.nested_dissection(4);
+            let order = m.nested_dissection(4, &|_, _| false);
             let mut seen = vec![false; m.n_nodes()];
             for &k in &order {
                 assert!(!seen[k], "node {k} twice");
@@ -575,6 +686,30 @@ mod tests {
                 let i_mid = m.node_ij(mid[0]).0;
                 assert!(mid.iter().all(|&k| m.node_ij(k).0 == i_mid));
                 assert_eq!(i_mid % 2, 0, "separators lie on element edges");
+            }
+        }
+    }
+
+    #[test]
+    fn nested_dissection_with_coupled_faces_is_a_permutation() {
+        for periodic in [false, true] {
+            let m = Mesh::rectangle(
+                Axis::uniform(0.0, 4.0, 16),
+                Axis::uniform(0.0, 1.0, 4),
+                periodic,
+            );
+            // every face coupled: the widest separators, on every line and the seam
+            let all = |_: usize, _: usize| true;
+            let some = |e: usize, _: usize| e.is_multiple_of(3);
+            let cases: [&dyn Fn(usize, usize) -> bool; 2] = [&all, &some];
+            for coupled in cases {
+                let order = m.nested_dissection(4, coupled);
+                let mut seen = vec![false; m.n_nodes()];
+                for &k in &order {
+                    assert!(!seen[k], "node {k} twice");
+                    seen[k] = true;
+                }
+                assert!(seen.iter().all(|&s| s), "every node ordered");
             }
         }
     }

@@ -14,7 +14,7 @@
 
 use crate::fem::element::{physical_gradients, q1, q2_map};
 use crate::fem::sparse::{PatternBuilder, SparseMatrix};
-use crate::mesh::Mesh;
+use crate::mesh::{Mesh, Shape};
 use crate::solver::rigid::ElementCut;
 
 /// Which face of the first element a ghost face is.
@@ -40,16 +40,20 @@ pub struct GhostFace {
 
 /// The faces that get the ghost penalty for the given cuts (periodic neighbours included).
 pub fn ghost_faces(mesh: &Mesh, cuts: &[ElementCut]) -> Vec<GhostFace> {
-    let (nx, ny) = mesh.dims();
     let is_cut = |e: usize| matches!(cuts[e], ElementCut::Cut(_));
     let inside = |e: usize| matches!(cuts[e], ElementCut::Inside);
+    faces_where(mesh, |e, o| {
+        !inside(e) && !inside(o) && (is_cut(e) || is_cut(o))
+    })
+}
+
+/// The interior faces (periodic neighbours included) between elements `e`, `o` with `keep(e, o)`.
+pub fn faces_where(mesh: &Mesh, keep: impl Fn(usize, usize) -> bool) -> Vec<GhostFace> {
+    let (nx, ny) = mesh.dims();
     let mut faces = Vec::new();
     for ey in 0..ny {
         for ex in 0..nx {
             let e = ey * nx + ex;
-            if inside(e) {
-                continue;
-            }
             let right = if ex + 1 < nx {
                 Some(e + 1)
             } else if mesh.periodic && nx > 1 {
@@ -60,7 +64,7 @@ pub fn ghost_faces(mesh: &Mesh, cuts: &[ElementCut]) -> Vec<GhostFace> {
             let top = (ey + 1 < ny).then_some(e + nx);
             for (other, side) in [(right, FaceSide::Right), (top, FaceSide::Top)] {
                 if let Some(o) = other {
-                    if !inside(o) && (is_cut(e) || is_cut(o)) {
+                    if keep(e, o) {
                         faces.push(GhostFace {
                             first: e,
                             second: o,
@@ -124,6 +128,88 @@ pub fn ghost_face_matrix(mesh: &Mesh, face: &GhostFace, k: &mut [f64; 64]) -> f6
     length
 }
 
+/// Local matrices of the *patch* ghost penalty of the flow on a face (Preuß 2018; Burman et al.
+/// 2022): with E₁u, E₂u the polynomials of the two elements extended to the whole patch
+/// K₁ ∪ K₂,
+///
+/// ```text
+///   j(u, v) = ∫_{K₁∪K₂} (E₁u − E₂u)(E₁v − E₂v) dx
+/// ```
+///
+/// which vanishes for a field that is one polynomial across the face and ties the values at
+/// nodes with a sliver of fluid to their neighbours. Q2 scalar over the 18 node slots (the first
+/// element's nine, then the second's) into `k2` and Q1 over the 8 vertex slots into `k1`, both
+/// row-major; returns the patch diameter (the larger element size). Extension in reference
+/// coordinates: a point of one element is located in the other's (extrapolated) map.
+pub fn ghost_patch_matrices(
+    mesh: &Mesh,
+    face: &GhostFace,
+    k2: &mut [f64; 324],
+    k1: &mut [f64; 64],
+) -> f64 {
+    use crate::fem::element::q2;
+    use crate::fem::quadrature::gauss_quad;
+    use crate::mesh::structured::invert_q2_map;
+    let xs = [
+        &mesh.element_coords[face.first],
+        &mesh.element_coords[face.second],
+    ];
+    k2.fill(0.0);
+    k1.fill(0.0);
+    let rule = gauss_quad(3);
+    // reference offset of the other element's centre: (±2, 0) or (0, ±2)
+    let shift = match face.side {
+        FaceSide::Right => [2.0, 0.0],
+        FaceSide::Top => [0.0, 2.0],
+    };
+    let period = (mesh.periodic && mesh.shape == Shape::Rectangle)
+        .then(|| mesh.ax.vertices[mesh.ax.len()] - mesh.ax.vertices[0]);
+    let mut size = 0.0_f64;
+    for (own, other) in [(0usize, 1usize), (1, 0)] {
+        let sign = if own == 0 { 1.0 } else { -1.0 };
+        let c = xs[own];
+        size = size
+            .max(((c[8][0] - c[0][0]).powi(2) + (c[8][1] - c[0][1]).powi(2)).sqrt() / 2f64.sqrt());
+        let centre_other = xs[other][4];
+        for (xi, w) in rule.points.iter().zip(&rule.weights) {
+            let (mut x, _, det) = q2_map(xs[own], *xi);
+            if let Some(l) = period {
+                // the other element may lie across the periodic seam
+                x[0] -= l * ((x[0] - centre_other[0]) / l).round();
+            }
+            let guess = [xi[0] - sign * shift[0], xi[1] - sign * shift[1]];
+            let xo = invert_q2_map(xs[other], x, guess);
+            let wq = w * det;
+            let (n_own, n_oth) = (q2(*xi).0, q2(xo).0);
+            let (p_own, p_oth) = (q1(*xi).0, q1(xo).0);
+            // slots: first element's basis with +, second's with −
+            let mut j2 = [0.0; 18];
+            let mut j1 = [0.0; 8];
+            let (o, t) = if own == 0 { (0, 9) } else { (9, 0) };
+            for a in 0..9 {
+                j2[o + a] += sign * n_own[a];
+                j2[t + a] -= sign * n_oth[a];
+            }
+            let (o, t) = if own == 0 { (0, 4) } else { (4, 0) };
+            for a in 0..4 {
+                j1[o + a] += sign * p_own[a];
+                j1[t + a] -= sign * p_oth[a];
+            }
+            for a in 0..18 {
+                for b in 0..18 {
+                    k2[18 * a + b] += wq * j2[a] * j2[b];
+                }
+            }
+            for a in 0..8 {
+                for b in 0..8 {
+                    k1[8 * a + b] += wq * j1[a] * j1[b];
+                }
+            }
+        }
+    }
+    size
+}
+
 /// The Q1 pattern of the mesh's elements plus the couplings of the ghost `faces` (the vertices of
 /// the two elements of a face are coupled with each other).
 pub fn pattern_with_faces(mesh: &Mesh, faces: &[GhostFace]) -> SparseMatrix {
@@ -184,6 +270,92 @@ mod tests {
                 "{}",
                 energy(&kink)
             );
+        }
+    }
+
+    #[test]
+    fn patch_penalty_vanishes_on_polynomials_and_sees_kinks() {
+        // 8×4 periodic mesh on [0, 2] × [0, 1] (h = 1/4): an interior face and the seam face
+        let mesh = Mesh::rectangle(Axis::uniform(0.0, 2.0, 8), Axis::uniform(0.0, 1.0, 4), true);
+        let (mut k2, mut k1) = ([0.0; 324], [0.0; 64]);
+        let faces = [
+            GhostFace {
+                first: 9,
+                second: 10,
+                side: FaceSide::Right,
+            },
+            GhostFace {
+                first: 9,
+                second: 17,
+                side: FaceSide::Top,
+            },
+            // the last element of row 1 and the first (across the seam x = 2 ≡ 0)
+            GhostFace {
+                first: 15,
+                second: 8,
+                side: FaceSide::Right,
+            },
+        ];
+        for face in faces {
+            let h = ghost_patch_matrices(&mesh, &face, &mut k2, &mut k1);
+            assert!((h - 0.25).abs() < ROUND_OFF, "patch size {h}");
+            // the element's own (unwrapped) node coordinates: periodic x continues across the seam
+            let node_x =
+                |slot: usize| mesh.element_coords[[face.first, face.second][slot / 9]][slot % 9];
+            let q2_energy = |f: &dyn Fn([f64; 2]) -> f64| {
+                let mut x: Vec<[f64; 2]> = (0..18).map(node_x).collect();
+                if face.first == 15 {
+                    // second element across the seam: shift it to continue the first
+                    x[9..].iter_mut().for_each(|p| p[0] += 2.0);
+                }
+                let u: Vec<f64> = x.iter().map(|&p| f(p)).collect();
+                (0..18)
+                    .flat_map(|a| (0..18).map(move |b| (a, b)))
+                    .map(|(a, b)| u[a] * k2[18 * a + b] * u[b])
+                    .sum::<f64>()
+            };
+            let q1_energy = |f: &dyn Fn([f64; 2]) -> f64| {
+                // vertex slot a of an element is its node [0, 2, 6, 8][a]
+                let x: Vec<[f64; 2]> = (0..8)
+                    .map(|a| node_x(9 * (a / 4) + [0, 2, 6, 8][a % 4]))
+                    .map(|mut p| {
+                        if face.first == 15 && p[0] < 1.0 {
+                            p[0] += 2.0;
+                        }
+                        p
+                    })
+                    .collect();
+                let p: Vec<f64> = x.iter().map(|&y| f(y)).collect();
+                (0..8)
+                    .flat_map(|a| (0..8).map(move |b| (a, b)))
+                    .map(|(a, b)| p[a] * k1[8 * a + b] * p[b])
+                    .sum::<f64>()
+            };
+            let quad = |x: [f64; 2]| {
+                1.0 + x[0] - 2.0 * x[1] + x[0] * x[0] - x[0] * x[1] * x[1] + 3.0 * x[1] * x[1]
+            };
+            assert!(
+                q2_energy(&quad).abs() < ROUND_OFF,
+                "{face:?}: {}",
+                q2_energy(&quad)
+            );
+            let bilin = |x: [f64; 2]| 2.0 - x[0] + 0.5 * x[1] + x[0] * x[1];
+            assert!(
+                q1_energy(&bilin).abs() < ROUND_OFF,
+                "{face:?}: {}",
+                q1_energy(&bilin)
+            );
+            // a kink on the face: |x − x_F| (Right) or |y − y_F| (Top) is seen
+            let xf = match face.side {
+                FaceSide::Right => mesh.element_coords[face.first][2][0],
+                FaceSide::Top => mesh.element_coords[face.first][6][1],
+            };
+            let kink = |x: [f64; 2]| match face.side {
+                FaceSide::Right => (x[0] - xf).abs(),
+                FaceSide::Top => (x[1] - xf).abs(),
+            };
+            assert!(q2_energy(&kink) > 1e-3, "{face:?}: {}", q2_energy(&kink));
+            assert!(q1_energy(&kink) > 1e-3, "{face:?}: {}", q1_energy(&kink));
         }
     }
 }

@@ -23,6 +23,7 @@ use crate::fem::linsolve::{DirectSolver, DofBlocks, SolveError, SolverKind};
 use crate::fem::quadrature::{gauss_quad, QuadRule};
 use crate::fem::sparse::{PatternBuilder, SparseMatrix};
 use crate::mesh::{Mesh, Shape, Side};
+use crate::solver::ghost::{faces_where, ghost_faces, ghost_patch_matrices};
 use crate::solver::polymer_terms::{boundary_terms, volume_terms, PolymerStress};
 use crate::solver::rigid::{
     jump_vectors, weak_rigid_kernel, CutElement, ElementCut, Motion, Particle, WeakForm,
@@ -44,6 +45,9 @@ pub struct StokesParams {
     /// With θ > 0: G as coupled unknowns (true) or supplied explicitly by the caller through
     /// [`PolymerStress`] as −θGⁿ (false; the flow matrix then has no G block).
     pub coupled_g: bool,
+    /// Patch ghost penalty of velocity and pressure on the faces of cut elements
+    /// ([`ghost_patch_matrices`]): velocity γ (η + θ)/h², pressure −γ/(η + θ); 0 = none.
+    pub ghost_penalty: f64,
 }
 
 impl StokesParams {
@@ -57,6 +61,7 @@ impl StokesParams {
             rigid_form: WeakForm::Symmetric,
             kappa: eta + theta,
             coupled_g: true,
+            ghost_penalty: FLOW_GHOST_PENALTY,
         }
     }
 }
@@ -145,6 +150,9 @@ pub struct StokesSolution {
 /// must be rebuilt; the unused couplings store zeros.
 const RIGID_REACH: f64 = 2.0;
 
+/// Default patch ghost-penalty coefficient of the flow ([`StokesParams::ghost_penalty`]).
+pub const FLOW_GHOST_PENALTY: f64 = 0.001;
+
 /// Per particle, the elements whose velocity and pressure the pattern couples to its rigid-body
 /// unknowns: bounding box within the radius plus [`RIGID_REACH`] element sizes of the centre
 /// (nearest periodic image on a periodic rectangle).
@@ -226,6 +234,30 @@ fn build_pattern(mesh: &Mesh, layout: &Layout, reach: &[Vec<bool>]) -> SparseMat
                 u_i.extend(mesh.elements[e].iter().map(|&k| layout.u(k, ij / 2)));
                 pb.add_group(&g_ij);
                 pb.add_coupling(&g_ij, &u_i);
+            }
+        }
+    }
+    // the ghost-penalty patches of faces next to an element in reach (only those can be cut
+    // while the pattern lasts)
+    let in_reach = |e: usize| reach.iter().any(|r| r[e]);
+    for face in faces_where(mesh, |e, o| in_reach(e) || in_reach(o)) {
+        group.clear();
+        for e in [face.first, face.second] {
+            element_dofs(mesh, layout, e, &mut dofs);
+            group.extend_from_slice(&dofs[..22]);
+        }
+        group.sort_unstable();
+        group.dedup();
+        pb.add_group(&group);
+        if layout.with_g {
+            for ij in 0..4 {
+                g_ij.clear();
+                for e in [face.first, face.second] {
+                    g_ij.extend(mesh.element_vertices[e].iter().map(|&v| layout.g(v, ij)));
+                }
+                g_ij.sort_unstable();
+                g_ij.dedup();
+                pb.add_group(&g_ij);
             }
         }
     }
@@ -634,9 +666,76 @@ impl Stokes {
             self.matrix
                 .scatter(&dofs, ke, fe, &mut self.rhs, &self.unconstrained);
         }
+        if self.params.ghost_penalty > 0.0 {
+            self.assemble_ghost_penalty();
+        }
         self.matrix
             .eliminate_constraints(&mut self.rhs, &self.fixed);
         self.matrix.apply_constraints(&mut self.rhs, &self.fixed);
+    }
+
+    /// Adds the patch ghost penalty of velocity and pressure on the faces of cut elements.
+    fn assemble_ghost_penalty(&mut self) {
+        let lay = self.layout;
+        let visc = self.params.eta + self.params.theta;
+        let (mut k2, mut k1) = ([0.0; 324], [0.0; 64]);
+        const N: usize = 44;
+        let mut ke = [0.0; N * N];
+        let zero = [0.0; N];
+        let mut dofs = [0usize; N];
+        for face in ghost_faces(&self.mesh, &self.cuts) {
+            let h = ghost_patch_matrices(&self.mesh, &face, &mut k2, &mut k1);
+            let (gu, gp) = (
+                self.params.ghost_penalty * visc / (h * h),
+                -self.params.ghost_penalty / visc,
+            );
+            let (e1, e2) = (face.first, face.second);
+            let nodes = [self.mesh.elements[e1], self.mesh.elements[e2]];
+            let verts = [
+                self.mesh.element_vertices[e1],
+                self.mesh.element_vertices[e2],
+            ];
+            for a in 0..18 {
+                let k = nodes[a / 9][a % 9];
+                dofs[2 * a] = lay.u(k, 0);
+                dofs[2 * a + 1] = lay.u(k, 1);
+            }
+            for a in 0..8 {
+                dofs[36 + a] = lay.p(verts[a / 4][a % 4]);
+            }
+            ke.fill(0.0);
+            for a in 0..18 {
+                for b in 0..18 {
+                    let v = gu * k2[18 * a + b];
+                    ke[(2 * a) * N + 2 * b] = v;
+                    ke[(2 * a + 1) * N + 2 * b + 1] = v;
+                }
+            }
+            for a in 0..8 {
+                for b in 0..8 {
+                    ke[(36 + a) * N + 36 + b] = gp * k1[8 * a + b];
+                }
+            }
+            let mut scratch = std::mem::take(&mut self.rhs);
+            self.matrix
+                .scatter(&dofs, &ke, &zero, &mut scratch, &self.unconstrained);
+            if lay.with_g {
+                // G's rows are an L² projection (θ(G, H)): the same patch term, unscaled by h
+                let kg = k1.map(|v| self.params.ghost_penalty * self.params.theta * v);
+                for ij in 0..4 {
+                    let g_dofs: [usize; 8] =
+                        std::array::from_fn(|a| lay.g(verts[a / 4][a % 4], ij));
+                    self.matrix.scatter(
+                        &g_dofs,
+                        &kg,
+                        &zero[..8],
+                        &mut scratch,
+                        &self.unconstrained,
+                    );
+                }
+            }
+            self.rhs = scratch;
+        }
     }
 
     /// Matrix values of the elements outside every reach (no stress, no constraints).
@@ -787,9 +886,11 @@ impl Stokes {
         let n = lay.n_dofs();
         // geometric nested dissection of the structured mesh: 17 % (200×50) and 27 % (440×110)
         // less flow factorization time than AMD on the node-block graph
+        // (the ghost-penalty patches of faces next to an element in reach couple both elements)
+        let in_reach = |e: usize| self.reach.iter().any(|r| r[e]);
         let mut order: Vec<u32> = self
             .mesh
-            .nested_dissection(ND_LEAF)
+            .nested_dissection(ND_LEAF, &|e, o| in_reach(e) || in_reach(o))
             .into_iter()
             .map(|k| k as u32)
             .collect();
