@@ -13,6 +13,7 @@
 //! the equation being stabilized).
 
 use crate::fem::element::{physical_gradients, q1, q2_map};
+use crate::fem::quadrature::QuadRule;
 use crate::fem::sparse::{PatternBuilder, SparseMatrix};
 use crate::mesh::{Mesh, Shape};
 use crate::solver::rigid::ElementCut;
@@ -140,15 +141,16 @@ pub fn ghost_face_matrix(mesh: &Mesh, face: &GhostFace, k: &mut [f64; 64]) -> f6
 /// nodes with a sliver of fluid to their neighbours. Q2 scalar over the 18 node slots (the first
 /// element's nine, then the second's) into `k2` and Q1 over the 8 vertex slots into `k1`, both
 /// row-major; returns the patch diameter (the larger element size). Extension in reference
-/// coordinates: a point of one element is located in the other's (extrapolated) map.
+/// coordinates: a point of one element is located in the other's (extrapolated) map. `rule`:
+/// the element quadrature (3×3 Gauss integrates the Q2 products exactly on affine elements).
 pub fn ghost_patch_matrices(
     mesh: &Mesh,
     face: &GhostFace,
+    rule: &QuadRule,
     k2: &mut [f64; 324],
     k1: &mut [f64; 64],
 ) -> f64 {
     use crate::fem::element::q2;
-    use crate::fem::quadrature::gauss_quad;
     use crate::mesh::structured::invert_q2_map;
     let xs = [
         &mesh.element_coords[face.first],
@@ -156,7 +158,6 @@ pub fn ghost_patch_matrices(
     ];
     k2.fill(0.0);
     k1.fill(0.0);
-    let rule = gauss_quad(3);
     // reference offset of the other element's centre: (±2, 0) or (0, ±2)
     let shift = match face.side {
         FaceSide::Right => [2.0, 0.0],
@@ -278,6 +279,7 @@ mod tests {
         // 8×4 periodic mesh on [0, 2] × [0, 1] (h = 1/4): an interior face and the seam face
         let mesh = Mesh::rectangle(Axis::uniform(0.0, 2.0, 8), Axis::uniform(0.0, 1.0, 4), true);
         let (mut k2, mut k1) = ([0.0; 324], [0.0; 64]);
+        let rule = crate::fem::quadrature::gauss_quad(3);
         let faces = [
             GhostFace {
                 first: 9,
@@ -297,7 +299,7 @@ mod tests {
             },
         ];
         for face in faces {
-            let h = ghost_patch_matrices(&mesh, &face, &mut k2, &mut k1);
+            let h = ghost_patch_matrices(&mesh, &face, &rule, &mut k2, &mut k1);
             assert!((h - 0.25).abs() < ROUND_OFF, "patch size {h}");
             // the element's own (unwrapped) node coordinates: periodic x continues across the seam
             let node_x =

@@ -684,7 +684,7 @@ impl Stokes {
         let zero = [0.0; N];
         let mut dofs = [0usize; N];
         for face in ghost_faces(&self.mesh, &self.cuts) {
-            let h = ghost_patch_matrices(&self.mesh, &face, &mut k2, &mut k1);
+            let h = ghost_patch_matrices(&self.mesh, &face, &self.rule, &mut k2, &mut k1);
             let (gu, gp) = (
                 self.params.ghost_penalty * visc / (h * h),
                 -self.params.ghost_penalty / visc,
@@ -716,9 +716,8 @@ impl Stokes {
                     ke[(36 + a) * N + 36 + b] = gp * k1[8 * a + b];
                 }
             }
-            let mut scratch = std::mem::take(&mut self.rhs);
             self.matrix
-                .scatter(&dofs, &ke, &zero, &mut scratch, &self.unconstrained);
+                .scatter(&dofs, &ke, &zero, &mut self.rhs, &self.unconstrained);
             if lay.with_g {
                 // G's rows are an L² projection (θ(G, H)): the same patch term, unscaled by h
                 let kg = k1.map(|v| self.params.ghost_penalty * self.params.theta * v);
@@ -729,12 +728,11 @@ impl Stokes {
                         &g_dofs,
                         &kg,
                         &zero[..8],
-                        &mut scratch,
+                        &mut self.rhs,
                         &self.unconstrained,
                     );
                 }
             }
-            self.rhs = scratch;
         }
     }
 
