@@ -15,7 +15,9 @@ mod error;
 mod sweep_file;
 mod validate;
 
-pub use case::{CaseSpec, Fluid, Geometry, Layout, Model, Numerics, Output, Particles, Stop};
+pub use case::{
+    CaseSpec, Fluid, Geometry, HistoryRemap, Layout, Model, Numerics, Output, Particles, Stop,
+};
 pub use error::{ConfigError, SpecError};
 pub use sweep_file::{Axis, SweepSpec};
 pub use validate::MAX_DT_OVER_LAMBDA;

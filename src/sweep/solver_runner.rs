@@ -7,11 +7,12 @@
 //! coupling with LBLᵀ when β > 0, the semi-implicit stress of thesis Eq. 5.51 for β = 0). The
 //! cylinder-channel benchmark is run by `xpflow validate cylinder`, not as a sweep case.
 
-use crate::config::{CaseSpec, Geometry};
+use crate::config::{CaseSpec, Geometry, HistoryRemap};
 use crate::fem::element::{q1, Q2_NODES};
 use crate::mesh::{Axis, Mesh};
 use crate::observe::{CaseObserver, Control, FieldSnapshot, NodalField, ParticleState, Sample};
 use crate::particles::RigidState;
+use crate::solver::ale::Remap;
 use crate::solver::constitutive_stress::Coupling;
 use crate::solver::couette::CouetteGeometry;
 use crate::solver::cutcells::level_set;
@@ -271,6 +272,10 @@ fn run_moving<D: Domain>(
             }
         }
     };
+    sim.set_remap(match case.numerics.remap {
+        HistoryRemap::Bilinear => Remap::Bilinear,
+        HistoryRemap::Biquadratic => Remap::Quadratic,
+    });
     let fields = |sim: &MovingParticles<D>| FlowFields {
         u: sim.flow().velocity().to_vec(),
         p: sim.flow().pressure().to_vec(),
