@@ -363,24 +363,27 @@ impl Dissection<'_> {
         if ni == 0 || nj == 0 {
             return;
         }
-        // an even line strictly inside [lo, hi): lo < s < hi − 1 keeps both sides non-empty
-        let split = |lo: usize, hi: usize| -> Option<usize> {
+        // An even line strictly inside [lo, hi) (lo < s < hi − 1 keeps both sides non-empty),
+        // near the middle: within a fifth of the width either side, the one crossing the fewest
+        // coupled faces (each widens the separator by the nodes of two elements), then the
+        // closest to the middle.
+        let split = |lo: usize, hi: usize, dir: Dir, other: [usize; 2]| -> Option<usize> {
             let mid = (lo + hi) / 2;
-            [mid & !1, (mid & !1) + 2]
-                .into_iter()
-                .filter(|&s| s > lo && s + 1 < hi)
-                .min_by_key(|&s| s.abs_diff(mid))
+            let reach = ((hi - lo) / 5).max(2);
+            (mid.saturating_sub(reach)..=mid + reach)
+                .filter(|&s| s % 2 == 0 && s > lo && s + 1 < hi)
+                .min_by_key(|&s| (self.crossings(s, dir, other), s.abs_diff(mid)))
         };
         let cut = if ni * nj <= self.leaf {
             None
         } else if ni >= nj {
-            split(i[0], i[1])
+            split(i[0], i[1], Dir::Column, j)
                 .map(|s| (Dir::Column, s))
-                .or_else(|| split(j[0], j[1]).map(|s| (Dir::Row, s)))
+                .or_else(|| split(j[0], j[1], Dir::Row, i).map(|s| (Dir::Row, s)))
         } else {
-            split(j[0], j[1])
+            split(j[0], j[1], Dir::Row, i)
                 .map(|s| (Dir::Row, s))
-                .or_else(|| split(i[0], i[1]).map(|s| (Dir::Column, s)))
+                .or_else(|| split(i[0], i[1], Dir::Column, j).map(|s| (Dir::Column, s)))
         };
         match cut {
             None => {
@@ -407,6 +410,27 @@ impl Dissection<'_> {
                 self.dissect(i, [j[0], s], taken, order);
                 self.dissect(i, [s + 1, j[1]], taken, order);
                 self.emit_list(&sep, order);
+            }
+        }
+    }
+
+    /// Number of coupled faces that line `s` (direction `dir`) crosses over the range `other` of
+    /// the other lattice direction.
+    fn crossings(&self, s: usize, dir: Dir, other: [usize; 2]) -> usize {
+        let (nx, ny) = self.mesh.dims();
+        let overlaps = |e: usize| 2 * e + 2 >= other[0] && 2 * e < other[1];
+        match dir {
+            Dir::Column => {
+                let (el, er) = ((s / 2 + nx - 1) % nx, (s / 2) % nx);
+                (0..ny)
+                    .filter(|&ey| overlaps(ey) && (self.coupled)(ey * nx + el, ey * nx + er))
+                    .count()
+            }
+            Dir::Row => {
+                let (eb, et) = (s / 2 - 1, s / 2);
+                (0..nx)
+                    .filter(|&ex| overlaps(ex) && (self.coupled)(eb * nx + ex, et * nx + ex))
+                    .count()
             }
         }
     }
