@@ -372,7 +372,7 @@ impl Dissection<'_> {
             let reach = ((hi - lo) / 5).max(2);
             (mid.saturating_sub(reach)..=mid + reach)
                 .filter(|&s| s % 2 == 0 && s > lo && s + 1 < hi)
-                .min_by_key(|&s| (self.crossings(s, dir, other), s.abs_diff(mid)))
+                .min_by_key(|&s| (self.crossed(s, dir, other).count(), s.abs_diff(mid)))
         };
         let cut = if ni * nj <= self.leaf {
             None
@@ -414,25 +414,19 @@ impl Dissection<'_> {
         }
     }
 
-    /// Number of coupled faces that line `s` (direction `dir`) crosses over the range `other` of
-    /// the other lattice direction.
-    fn crossings(&self, s: usize, dir: Dir, other: [usize; 2]) -> usize {
+    /// The coupled faces that line `s` (direction `dir`) crosses over the range `other` of the
+    /// other lattice direction, as the element row (column line) or column (row line) index.
+    fn crossed(&self, s: usize, dir: Dir, other: [usize; 2]) -> impl Iterator<Item = usize> + '_ {
         let (nx, ny) = self.mesh.dims();
-        let overlaps = |e: usize| 2 * e + 2 >= other[0] && 2 * e < other[1];
-        match dir {
-            Dir::Column => {
-                let (el, er) = ((s / 2 + nx - 1) % nx, (s / 2) % nx);
-                (0..ny)
-                    .filter(|&ey| overlaps(ey) && (self.coupled)(ey * nx + el, ey * nx + er))
-                    .count()
-            }
-            Dir::Row => {
-                let (eb, et) = (s / 2 - 1, s / 2);
-                (0..nx)
-                    .filter(|&ex| overlaps(ex) && (self.coupled)(eb * nx + ex, et * nx + ex))
-                    .count()
-            }
-        }
+        let n = if dir == Dir::Column { ny } else { nx };
+        (0..n).filter(move |&k| {
+            // the element pair either side of the line (a column line at the seam s = 0: nx − 1, 0)
+            let (e, o) = match dir {
+                Dir::Column => (k * nx + (s / 2 + nx - 1) % nx, k * nx + (s / 2) % nx),
+                Dir::Row => ((s / 2 - 1) * nx + k, (s / 2) * nx + k),
+            };
+            2 * k + 2 >= other[0] && 2 * k < other[1] && (self.coupled)(e, o)
+        })
     }
 
     /// The free nodes of line `s` (direction `dir`) within the region, plus the free nodes of the
@@ -445,7 +439,7 @@ impl Dissection<'_> {
         j: [usize; 2],
         taken: &mut [bool],
     ) -> Vec<usize> {
-        let (nx, ny) = self.mesh.dims();
+        let nx = self.mesh.dims().0;
         let mut sep = Vec::new();
         let mut take = |a: usize, b: usize, sep: &mut Vec<usize>| {
             if a >= i[0] && a < i[1] && b >= j[0] && b < j[1] {
@@ -461,16 +455,8 @@ impl Dissection<'_> {
                 for b in j[0]..j[1] {
                     take(s, b, &mut sep);
                 }
-                // element columns either side of the line (the seam s = 0: nx − 1 and 0)
-                let (el, er) = ((s / 2 + nx - 1) % nx, (s / 2) % nx);
                 let centre = if s == 0 { 2 * nx } else { s };
-                for ey in 0..ny {
-                    if 2 * ey + 2 < j[0] || 2 * ey >= j[1] {
-                        continue;
-                    }
-                    if !(self.coupled)(ey * nx + el, ey * nx + er) {
-                        continue;
-                    }
+                for ey in self.crossed(s, dir, j) {
                     for b in 2 * ey..=2 * ey + 2 {
                         for a in centre - 2..=centre + 2 {
                             // beyond the seam: the first columns again
@@ -484,14 +470,7 @@ impl Dissection<'_> {
                 for a in i[0]..i[1] {
                     take(a, s, &mut sep);
                 }
-                let (eb, et) = (s / 2 - 1, s / 2);
-                for ex in 0..nx {
-                    if 2 * ex + 2 < i[0] || 2 * ex >= i[1] {
-                        continue;
-                    }
-                    if !(self.coupled)(eb * nx + ex, et * nx + ex) {
-                        continue;
-                    }
+                for ex in self.crossed(s, dir, i) {
                     for b in s - 2..=s + 2 {
                         for a in 2 * ex..=2 * ex + 2 {
                             take(a, b, &mut sep);
