@@ -11,6 +11,10 @@
 //! bound within a few steps. For Q1 the gradient jump of a smooth field is O(h), so the term is
 //! weakly consistent. The face coefficient γ_F is chosen by the caller (it carries the units of
 //! the equation being stabilized).
+//!
+//! The flow (Q2 velocity, Q1 pressure) uses the *patch* form instead ([`ghost_patch_matrices`]),
+//! which needs no higher normal derivatives of Q2: without it, velocities at nodes with a fluid
+//! sliver came out as large as 1e5 (docs/validation.md).
 
 use crate::fem::element::{physical_gradients, q1, q2_map};
 use crate::fem::quadrature::QuadRule;
