@@ -2,7 +2,7 @@
 //! 5.54–5.56, and overlap / wall-contact detection (reported, never silently continued).
 
 /// Positions, orientations and velocities of all particles at one time level.
-#[derive(Debug, Clone, PartialEq)]
+#[derive(Debug, Clone, PartialEq, serde::Serialize, serde::Deserialize)]
 pub struct RigidState {
     /// Centres X_i (unwrapped: periodic wrapping is left to the geometry).
     pub x: Vec<[f64; 2]>,

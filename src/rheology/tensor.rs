@@ -9,8 +9,10 @@ use std::ops::{Add, AddAssign, Mul, Neg, Sub};
 
 use super::RheologyError;
 
-/// A symmetric 2×2 tensor `[[xx, xy], [xy, yy]]` (Cartesian components).
-#[derive(Clone, Copy, Debug, Default, PartialEq)]
+/// A symmetric 2×2 tensor `[[xx, xy], [xy, yy]]` (Cartesian components); serialized as
+/// `[xx, xy, yy]`.
+#[derive(Clone, Copy, Debug, Default, PartialEq, serde::Serialize, serde::Deserialize)]
+#[serde(from = "[f64; 3]", into = "[f64; 3]")]
 pub struct Sym2 {
     /// Component `xx`.
     pub xx: f64,
@@ -18,6 +20,18 @@ pub struct Sym2 {
     pub xy: f64,
     /// Component `yy`.
     pub yy: f64,
+}
+
+impl From<[f64; 3]> for Sym2 {
+    fn from([xx, xy, yy]: [f64; 3]) -> Self {
+        Sym2 { xx, xy, yy }
+    }
+}
+
+impl From<Sym2> for [f64; 3] {
+    fn from(s: Sym2) -> Self {
+        [s.xx, s.xy, s.yy]
+    }
 }
 
 impl Sym2 {

@@ -83,6 +83,14 @@ pub enum AleError {
         /// y.
         y: f64,
     },
+    /// A saved displacement does not fit the mesh.
+    #[error("saved mesh displacement has {len} vertices, the mesh {want}")]
+    Restore {
+        /// Saved length.
+        len: usize,
+        /// Vertices of the mesh.
+        want: usize,
+    },
 }
 
 /// The map of one step: interpolation of the fields at tⁿ and t^{n−1} at the pre-images of the
@@ -267,6 +275,32 @@ impl TemporaryAle {
             return Err(AleError::NonFinite { vertex });
         }
         Ok(d)
+    }
+
+    /// The mesh displacement of the last step (kept for the next step's second pre-image).
+    pub fn last_displacement(&self) -> Option<&[[f64; 2]]> {
+        self.previous.as_deref()
+    }
+
+    /// Sets the last step's mesh displacement (continuing a saved run).
+    ///
+    /// # Errors
+    /// [`AleError::Restore`] if it does not have one entry per vertex of `mesh`.
+    pub fn set_last_displacement(
+        &mut self,
+        d: Option<Vec<[f64; 2]>>,
+        mesh: &Mesh,
+    ) -> Result<(), AleError> {
+        if let Some(d) = &d {
+            if d.len() != mesh.n_vertices() {
+                return Err(AleError::Restore {
+                    len: d.len(),
+                    want: mesh.n_vertices(),
+                });
+            }
+        }
+        self.previous = d;
+        Ok(())
     }
 
     /// One step of the temporary ALE scheme: the displacement for `moves`, the pre-images of

@@ -77,7 +77,7 @@ pub enum ConstitutiveError {
 
 /// The time levels of `s` the BDF2 scheme needs, per Q1 vertex. Public so that a temporary ALE
 /// map can move both levels onto the current mesh before a step.
-#[derive(Debug, Clone, PartialEq)]
+#[derive(Debug, Clone, PartialEq, serde::Serialize, serde::Deserialize)]
 pub struct LogConformationHistory {
     /// `sⁿ`.
     pub current: Vec<Sym2>,

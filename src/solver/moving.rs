@@ -21,7 +21,7 @@ use crate::solver::couette::CouetteGeometry;
 use crate::solver::cutcells::{compute_cuts, CutError};
 use crate::solver::rigid::{Motion, Particle};
 use crate::solver::viscoelastic::{
-    HistoryMap, StepReport, ViscoelasticError, ViscoelasticFlow, ViscoelasticParams,
+    FlowState, HistoryMap, StepReport, ViscoelasticError, ViscoelasticFlow, ViscoelasticParams,
 };
 use crate::xfem::CutOptions;
 
@@ -175,6 +175,22 @@ pub struct MovingReport {
     pub steady: bool,
     /// Timings of the particle phases.
     pub timings: MovingTimings,
+}
+
+/// Everything a moving-particle run needs to continue from the end of a step in another process
+/// (see [`MovingParticles::checkpoint`]).
+#[derive(Debug, Clone, PartialEq, serde::Serialize, serde::Deserialize)]
+pub struct MovingCheckpoint {
+    /// Xⁿ, Uⁿ, ωⁿ.
+    pub cur: RigidState,
+    /// Xⁿ⁻¹.
+    pub prev: Option<RigidState>,
+    /// X̂ⁿ, where the fields were computed.
+    pub fields_at: Vec<[f64; 2]>,
+    /// The ALE mesh displacement of the last step (BDF2 mesh velocity).
+    pub ale_displacement: Option<Vec<[f64; 2]>>,
+    /// The fluid.
+    pub flow: FlowState,
 }
 
 /// A viscoelastic flow with moving rigid particles.
@@ -387,6 +403,47 @@ impl<D: Domain> MovingParticles<D> {
             }
         }
         Ok(MovingEnd::EndTime)
+    }
+
+    /// The state after the last step, from which [`restore`](Self::restore) continues the run.
+    pub fn checkpoint(&self) -> MovingCheckpoint {
+        MovingCheckpoint {
+            cur: self.cur.clone(),
+            prev: self.prev.clone(),
+            fields_at: self.fields_at.clone(),
+            ale_displacement: self.ale.last_displacement().map(<[_]>::to_vec),
+            flow: self.flow.state(),
+        }
+    }
+
+    /// Continues from a [`checkpoint`](Self::checkpoint) of the same set-up (mesh, parameters,
+    /// particles): the following steps equal those of the run that wrote it up to round-off.
+    ///
+    /// # Errors
+    /// [`MovingError::Setup`] if the checkpoint has another particle count,
+    /// [`MovingError::Cut`] if the saved positions cannot be cut into the mesh,
+    /// [`MovingError::Flow`] if the fields do not fit the mesh.
+    pub fn restore(&mut self, cp: MovingCheckpoint) -> Result<(), MovingError> {
+        let n = self.radius.len();
+        let lens = [cp.cur.x.len(), cp.fields_at.len()];
+        if lens.iter().any(|&l| l != n) || cp.prev.as_ref().is_some_and(|p| p.x.len() != n) {
+            return Err(MovingError::Setup(format!(
+                "the checkpoint has {} particles, this case {n}",
+                cp.cur.x.len()
+            )));
+        }
+        let step = cp.flow.history.steps();
+        let particles = make_particles(&self.domain, &cp.fields_at, &self.radius, &self.motion);
+        let cuts = compute_cuts(self.flow.mesh(), &particles, self.domain.period(), self.cut)
+            .map_err(|source| MovingError::Cut { step, source })?;
+        self.ale
+            .set_last_displacement(cp.ale_displacement, self.flow.mesh())
+            .map_err(|source| MovingError::Ale { step, source })?;
+        self.flow.restore(cp.flow, particles, cuts)?;
+        self.cur = cp.cur;
+        self.prev = cp.prev;
+        self.fields_at = cp.fields_at;
+        Ok(())
     }
 
     /// Positions, orientations and velocities at the current time level.
