@@ -226,3 +226,119 @@ output = { sample_every = 1 }
     println!("largest asymmetry (positions, ω): {worst:.2e}");
     assert!(worst < SYMMETRY_TOL, "asymmetry {worst:e}");
 }
+
+/// A sweep process killed in the middle of a case continues that case from its last saved
+/// solver state when the sweep is run again: the samples before the state are kept, the ones
+/// after it are recomputed, and the whole trajectory equals an uninterrupted run's.
+#[test]
+fn a_killed_case_continues_from_its_saved_state() {
+    // the restored flow pattern may order the factorization differently: round-off only
+    const RESUME_TOL: f64 = 1e-9;
+    let dir = scratch("resume");
+    let file = dir.join("s.toml");
+    std::fs::write(
+        &file,
+        r#"
+name = "resume"
+[base]
+geometry.confined_shear = { h = 1.0, l = 4.0 }
+fluid = { model = "giesekus", wi = 1.0, alpha = 0.01, beta = 0.1 }
+particles = { radius = 0.1, layout.pair = { lx = 0.5, ly = 0.06 } }
+numerics = { mesh = [40, 10], dt = 0.02, t_end = 2.0 }
+output = { sample_every = 1, snapshot_every = 10 }
+"#,
+    )
+    .unwrap();
+    let exe = env!("CARGO_BIN_EXE_xpflow");
+    let sweep = |db: &PathBuf| {
+        let mut c = std::process::Command::new(exe);
+        c.arg("sweep")
+            .arg(&file)
+            .arg("--db")
+            .arg(db)
+            .args(["--state-every", "0", "--jobs", "1"])
+            .stdout(std::process::Stdio::piped())
+            .stderr(std::process::Stdio::piped());
+        c
+    };
+    let trajectory = |db: &PathBuf| -> Vec<[f64; 4]> {
+        let store = Store::open(db).unwrap();
+        let mut st = store
+            .connection()
+            .prepare("SELECT step, x, y, omega FROM samples ORDER BY step, particle")
+            .unwrap();
+        let rows = st
+            .query_map([], |r| {
+                Ok([r.get::<_, i64>(0)? as f64, r.get(1)?, r.get(2)?, r.get(3)?])
+            })
+            .unwrap();
+        rows.map(Result::unwrap).collect()
+    };
+    // uninterrupted
+    let whole = dir.join("whole.db");
+    let out = sweep(&whole).output().unwrap();
+    assert!(
+        out.status.success(),
+        "{}",
+        String::from_utf8_lossy(&out.stderr)
+    );
+    let reference = trajectory(&whole);
+    assert_eq!(reference.len(), 2 * 101, "steps 0..=100, two particles");
+    // killed after some steps have been saved
+    let db = dir.join("killed.db");
+    let state = dir.join("resume").join(format!(
+        "{}.resume.json",
+        expand(&SweepSpec::from_file(&file).unwrap()).unwrap()[0].id
+    ));
+    let mut child = sweep(&db).spawn().unwrap();
+    let t0 = std::time::Instant::now();
+    while !std::fs::metadata(&state).is_ok_and(|m| m.len() > 0) || trajectory(&db).len() < 2 * 30 {
+        assert!(t0.elapsed().as_secs() < 120, "no saved state appeared");
+        std::thread::sleep(std::time::Duration::from_millis(20));
+    }
+    child.kill().unwrap();
+    child.wait().unwrap();
+    let partial = trajectory(&db).len();
+    assert!(
+        partial < reference.len(),
+        "killed too late ({partial} rows)"
+    );
+    let out = sweep(&db).output().unwrap();
+    let log =
+        String::from_utf8_lossy(&out.stdout).to_string() + &String::from_utf8_lossy(&out.stderr);
+    assert!(out.status.success(), "{log}");
+    assert!(log.contains("resume"), "the case started over:\n{log}");
+    assert!(
+        !state.exists(),
+        "the saved state outlives the finished case"
+    );
+    let resumed = trajectory(&db);
+    assert_eq!(resumed.len(), reference.len(), "a step missing or doubled");
+    let diff = resumed
+        .iter()
+        .zip(&reference)
+        .map(|(a, b)| {
+            assert_eq!(a[0], b[0], "steps out of order");
+            (1..4).map(|k| (a[k] - b[k]).abs()).fold(0.0, f64::max)
+        })
+        .fold(0.0, f64::max);
+    assert!(diff < RESUME_TOL, "resumed trajectory differs by {diff:e}");
+    // the snapshots of both attempts make one series
+    let snaps: i64 = Store::open(&db)
+        .unwrap()
+        .connection()
+        .query_row("SELECT count(*) FROM snapshots", [], |r| r.get(0))
+        .unwrap();
+    assert_eq!(snaps, 11, "snapshots at steps 0, 10, …, 100");
+    let xdmf = std::fs::read_to_string(
+        state.with_file_name(
+            state
+                .file_name()
+                .unwrap()
+                .to_string_lossy()
+                .replace(".resume.json", ".xdmf"),
+        ),
+    )
+    .unwrap();
+    assert_eq!(xdmf.matches("<Grid Name=\"step_").count(), 11);
+}

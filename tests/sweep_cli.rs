@@ -27,6 +27,7 @@ fn args(file: &Path, db: &Path) -> SweepArgs {
         dry_run: false,
         quiet: true,
         retry_failed: false,
+        state_every: 5.0,
     }
 }
 

@@ -39,6 +39,10 @@ pub struct SweepArgs {
     /// Rerun cases recorded as failed.
     #[arg(long)]
     pub retry_failed: bool,
+    /// Minutes between saved solver states of a running case: a killed case continues from its
+    /// last one (0: after every step).
+    #[arg(long, default_value_t = 5.0)]
+    pub state_every: f64,
 }
 
 /// What `xpflow query` tabulates.
@@ -138,6 +142,7 @@ pub fn run_sweep_with(
         opts.jobs = j.max(1);
     }
     opts.retry_failed = args.retry_failed;
+    opts.state_every = std::time::Duration::from_secs_f64(args.state_every.max(0.0) * 60.0);
     opts.progress = ProgressMode::detect(args.quiet);
     match crate::sweep::run_sweep(&spec, &cases, runner, &opts) {
         Ok(summary) => {

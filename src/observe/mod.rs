@@ -32,7 +32,7 @@ pub struct ParticleState {
 }
 
 /// Particle states after one time step.
-#[derive(Debug, Clone, PartialEq)]
+#[derive(Debug, Clone, PartialEq, serde::Serialize, serde::Deserialize)]
 pub struct Sample {
     /// Time step number (1 for the first step after t = 0; 0 for the initial state).
     pub step: u64,
@@ -90,4 +90,17 @@ pub trait CaseObserver {
     fn on_snapshot(&mut self, snapshot: &FieldSnapshot);
     /// Persist what has been observed so far (long cases).
     fn checkpoint(&mut self);
+    /// True when the runner should hand its state to [`CaseObserver::save_state`] after `step`
+    /// (after reporting that step to [`CaseObserver::on_step`]).
+    fn state_due(&self, _step: u64) -> bool {
+        false
+    }
+    /// The runner's state after `step` (JSON, opaque to the observer): if the process dies, the
+    /// case continues from here instead of from the start.
+    fn save_state(&mut self, _step: u64, _state: &str) {}
+    /// The state an interrupted case continues from (what [`CaseObserver::save_state`] got,
+    /// once): the runner restores it, skips the initial report and goes on from the step after.
+    fn resume_state(&mut self) -> Option<String> {
+        None
+    }
 }

@@ -75,7 +75,7 @@ impl OutcomeKind {
 }
 
 /// A decided outcome.
-#[derive(Debug, Clone, PartialEq)]
+#[derive(Debug, Clone, PartialEq, serde::Serialize, serde::Deserialize)]
 pub struct Outcome {
     /// The kind.
     pub kind: OutcomeKind,
@@ -89,8 +89,9 @@ pub struct Outcome {
     pub final_state: Value,
 }
 
-/// Decides the outcome of one case from its samples, one step at a time.
-#[derive(Debug, Clone)]
+/// Decides the outcome of one case from its samples, one step at a time (serializable: a resumed
+/// case continues with the classifier it had).
+#[derive(Debug, Clone, serde::Serialize, serde::Deserialize)]
 pub struct Classifier {
     geometry: Geometry,
     radius: f64,

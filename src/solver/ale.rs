@@ -540,9 +540,8 @@ fn pre_image(
 ) -> Result<(usize, [f64; 2], [f64; 2]), AleError> {
     let not_found = || AleError::NotFound { x: x[0], y: x[1] };
     // pre-images of wall points may leave the rectangle by round-off: start from the wall
-    let (e0, xi0) = mesh
-        .locate(x)
-        .or_else(|| match mesh.shape {
+    let locate = |x: [f64; 2]| {
+        mesh.locate(x).or_else(|| match mesh.shape {
             Shape::Rectangle => {
                 let (y0, y1) = (mesh.ay.vertices[0], mesh.ay.vertices[mesh.ay.len()]);
                 let (x0, x1) = (mesh.ax.vertices[0], mesh.ax.vertices[mesh.ax.len()]);
@@ -555,46 +554,66 @@ fn pre_image(
             }
             Shape::Annulus => None,
         })
-        .ok_or_else(not_found)?;
+    };
+    let (e0, xi0) = locate(x).ok_or_else(not_found)?;
+    // The pre-image X solves X + d(X) = x. Where d varies slowly (everywhere but across a few
+    // elements next to a rigid patch) X ≈ x − d(x): search around that first, then around x.
+    // A displacement of more than an element per step (a particle at speed U with UΔt > h, and
+    // the first predicted step moves by 2UΔt) puts X beyond the neighbours of x's element.
+    let dx = {
+        let (n, _) = q1(xi0);
+        let dv = mesh.element_vertices[e0].map(|v| d[v]);
+        (0..4).fold([0.0; 2], |a, m| {
+            [a[0] + n[m] * dv[m][0], a[1] + n[m] * dv[m][1]]
+        })
+    };
+    let guess = locate([x[0] - dx[0], x[1] - dx[1]]);
     let (nx, ny) = mesh.dims();
-    let (ex0, ey0) = ((e0 % nx) as isize, (e0 / nx) as isize);
-    // the element holding x in the fixed mesh first, then its neighbours
-    let mut best: Option<(f64, usize, [f64; 2], [f64; 2])> = None;
-    for (dx, dy) in std::iter::once((0, 0)).chain(
-        [-1, 0, 1]
-            .into_iter()
-            .flat_map(|a| [-1, 0, 1].map(move |b| (a, b)))
-            .filter(|&p| p != (0, 0)),
-    ) {
-        let ey = ey0 + dy;
-        if ey < 0 || ey >= ny as isize {
-            continue;
-        }
-        let mut ex = ex0 + dx;
-        if mesh.periodic {
-            ex = ex.rem_euclid(nx as isize);
-        } else if ex < 0 || ex >= nx as isize {
-            continue;
-        }
-        let e = ey as usize * nx + ex as usize;
-        let xe = &mesh.element_coords[e];
-        let xc = nearest_image(x, xe[4], period.filter(|_| mesh.shape == Shape::Rectangle));
-        let start = if (dx, dy) == (0, 0) { xi0 } else { [0.0, 0.0] };
-        let Some(xi) = newton(xe, &mesh.element_vertices[e], d, xc, start) else {
-            continue;
-        };
-        let out = (xi[0].abs() - 1.0).max(xi[1].abs() - 1.0);
-        if out <= INSIDE_TOL {
-            let p = q2_map(xe, xi).0;
-            return Ok((e, clamp(xi), nearest_image(p, x, period)));
-        }
-        if best.as_ref().is_none_or(|b| out < b.0) {
-            best = Some((out, e, xi, q2_map(xe, xi).0));
+    let mut best: Option<(f64, usize, [f64; 2])> = None;
+    let mut tried = Vec::with_capacity(18);
+    for (ec, xic) in guess.into_iter().chain(std::iter::once((e0, xi0))) {
+        let (exc, eyc) = ((ec % nx) as isize, (ec / nx) as isize);
+        // the centre element first (from the located ξ), then its neighbours
+        for (dx, dy) in std::iter::once((0, 0)).chain(
+            [-1, 0, 1]
+                .into_iter()
+                .flat_map(|a| [-1, 0, 1].map(move |b| (a, b)))
+                .filter(|&p| p != (0, 0)),
+        ) {
+            let ey = eyc + dy;
+            if ey < 0 || ey >= ny as isize {
+                continue;
+            }
+            let mut ex = exc + dx;
+            if mesh.periodic {
+                ex = ex.rem_euclid(nx as isize);
+            } else if ex < 0 || ex >= nx as isize {
+                continue;
+            }
+            let e = ey as usize * nx + ex as usize;
+            if tried.contains(&e) {
+                continue;
+            }
+            tried.push(e);
+            let xe = &mesh.element_coords[e];
+            let xc = nearest_image(x, xe[4], period.filter(|_| mesh.shape == Shape::Rectangle));
+            let start = if (dx, dy) == (0, 0) { xic } else { [0.0, 0.0] };
+            let Some(xi) = newton(xe, &mesh.element_vertices[e], d, xc, start) else {
+                continue;
+            };
+            let out = (xi[0].abs() - 1.0).max(xi[1].abs() - 1.0);
+            if out <= INSIDE_TOL {
+                let p = q2_map(xe, xi).0;
+                return Ok((e, clamp(xi), nearest_image(p, x, period)));
+            }
+            if best.as_ref().is_none_or(|b| out < b.0) {
+                best = Some((out, e, xi));
+            }
         }
     }
     // points of the exact boundary just outside the discrete (curved) one: nearest candidate
     match best {
-        Some((out, e, xi, _)) if out < 1e-6 => {
+        Some((out, e, xi)) if out < 1e-6 => {
             let xi = clamp(xi);
             let p = q2_map(&mesh.element_coords[e], xi).0;
             Ok((e, xi, nearest_image(p, x, period)))
@@ -759,6 +778,36 @@ mod tests {
             let (vs, w) = m.at_n[v];
             let g: f64 = (0..9).map(|a| fv[vs[a]] * w[a]).sum();
             assert!((g - f(xn)).abs() < LOCATE_TOL, "{g} {}", f(xn));
+        }
+    }
+
+    #[test]
+    fn pre_images_beyond_the_neighbouring_elements_are_found() {
+        // A particle of radius 3h moving 1.7 elements in one step (the first predicted step
+        // moves by 2UΔt: a particle at y = −0.4 with U ≈ −0.41, Δt = 0.02, a = 5h = 0.05 moved
+        // 1.65h and its pre-images were lost when only the 3×3 elements around x were searched)
+        let mesh = channel();
+        let h = 0.1;
+        let mut ale = TemporaryAle::new(&mesh);
+        let moves = vec![RigidMove {
+            center: [0.3, 0.0],
+            radius: 3.0 * h,
+            displacement: [-1.7 * h, 0.2 * h],
+        }];
+        let m = ale.advance(&mesh, &moves, Some(2.0), 0.1, true).unwrap();
+        let d = &m.displacement;
+        for &k in &mesh.node_of_vertex {
+            let x = mesh.nodes[k];
+            let (e, xi, xn) = pre_image(&mesh, d, x, Some(2.0)).unwrap();
+            let dn = q1(xi).0;
+            let dd: [f64; 2] = std::array::from_fn(|i| {
+                (0..4)
+                    .map(|a| dn[a] * d[mesh.element_vertices[e][a]][i])
+                    .sum()
+            });
+            let back = nearest_image([xn[0] + dd[0], xn[1] + dd[1]], x, Some(2.0));
+            assert!((back[0] - x[0]).abs() < LOCATE_TOL, "{x:?} {xn:?}");
+            assert!((back[1] - x[1]).abs() < LOCATE_TOL);
         }
     }
 

@@ -8,6 +8,16 @@ use crate::config::SweepSpec;
 use crate::observe::{Outcome, Sample};
 use crate::sweep::PlannedCase;
 
+/// A case claimed by this process.
+#[derive(Debug, Clone, Copy, PartialEq, Eq)]
+pub struct Claim {
+    /// Row id of the case.
+    pub id: i64,
+    /// Whether it continues an interrupted attempt from its saved state (rows up to the saved
+    /// step kept) rather than starting over.
+    pub resumed: bool,
+}
+
 /// Everything recorded when a case ends.
 #[derive(Debug, Clone)]
 pub struct CaseRecord {
@@ -222,9 +232,15 @@ impl Store {
         Ok(reset)
     }
 
-    /// Claims a pending case for this process (pending → running) and clears any partial rows of an
-    /// earlier interrupted attempt; returns the case's row id, or `None` if it is not pending.
-    pub fn claim(&mut self, case_hash: &str) -> Result<Option<i64>> {
+    /// Claims a pending case for this process (pending → running) and clears the rows of an
+    /// earlier interrupted attempt; returns the case's row id and whether it continues that attempt,
+    /// or `None` if the case is not pending.
+    ///
+    /// `resume = Some((step, rows))` offers to continue from a saved state after `step` that was
+    /// written when the case had `rows` sample rows up to `step`: if the database still has exactly
+    /// those, the rows after `step` are dropped and the earlier ones kept; otherwise (a new or
+    /// another database) everything is cleared and the case starts over.
+    pub fn claim(&mut self, case_hash: &str, resume: Option<(u64, u64)>) -> Result<Option<Claim>> {
         let err = self.sql_err();
         let tx = self
             .conn
@@ -238,23 +254,56 @@ impl Store {
             )
             .optional()
             .map_err(&err)?;
-        if let Some(id) = id {
-            tx.execute(
-                "UPDATE cases SET status = 'running', owner = ?2, owner_pid = ?3, error = NULL,
-                    started_at = strftime('%Y-%m-%dT%H:%M:%fZ', 'now') WHERE id = ?1",
-                params![id, owner(), std::process::id()],
-            )
-            .map_err(&err)?;
-            for table in [
-                "DELETE FROM samples WHERE case_id = ?1",
-                "DELETE FROM outcomes WHERE case_id = ?1",
-                "DELETE FROM snapshots WHERE case_id = ?1",
-            ] {
-                tx.execute(table, params![id]).map_err(&err)?;
+        let Some(id) = id else {
+            tx.commit().map_err(err)?;
+            return Ok(None);
+        };
+        tx.execute(
+            "UPDATE cases SET status = 'running', owner = ?2, owner_pid = ?3, error = NULL,
+                started_at = strftime('%Y-%m-%dT%H:%M:%fZ', 'now') WHERE id = ?1",
+            params![id, owner(), std::process::id()],
+        )
+        .map_err(&err)?;
+        let keep = match resume {
+            Some((step, rows)) => {
+                let have: i64 = tx
+                    .query_row(
+                        "SELECT COUNT(*) FROM samples WHERE case_id = ?1 AND step <= ?2",
+                        params![id, step as i64],
+                        |r| r.get(0),
+                    )
+                    .map_err(&err)?;
+                (have == rows as i64).then_some(step as i64)
             }
+            None => None,
+        };
+        // keep = -1 clears everything
+        let after = keep.unwrap_or(-1);
+        for table in [
+            "DELETE FROM samples WHERE case_id = ?1 AND step > ?2",
+            "DELETE FROM snapshots WHERE case_id = ?1 AND step > ?2",
+        ] {
+            tx.execute(table, params![id, after]).map_err(&err)?;
         }
+        tx.execute("DELETE FROM outcomes WHERE case_id = ?1", params![id])
+            .map_err(&err)?;
         tx.commit().map_err(err)?;
-        Ok(id)
+        Ok(Some(Claim {
+            id,
+            resumed: keep.is_some(),
+        }))
+    }
+
+    /// Sample rows of a case up to and including `step`.
+    pub fn count_samples(&self, case_id: i64, step: u64) -> Result<u64> {
+        self.conn
+            .query_row(
+                "SELECT COUNT(*) FROM samples WHERE case_id = ?1 AND step <= ?2",
+                params![case_id, step as i64],
+                |r| r.get::<_, i64>(0),
+            )
+            .map(|n| n as u64)
+            .map_err(self.sql_err())
     }
 
     /// Writes samples of a running case (checkpoint), in one transaction.

@@ -38,6 +38,108 @@ impl SnapshotWriter {
         })
     }
 
+    /// Reopens the files of an interrupted case that continues after `step`: the snapshots up to
+    /// `step` are kept (and listed again in the XDMF file), later ones removed. Without an HDF5
+    /// file it creates one.
+    pub fn reopen(dir: &Path, case_hash: &str, step: u64) -> Result<SnapshotWriter> {
+        let h5 = dir.join(format!("{case_hash}.h5"));
+        if !h5.exists() {
+            return Self::create(dir, case_hash);
+        }
+        let h5err = |e: hdf5::Error| StoreError::Hdf5 {
+            path: h5.clone(),
+            message: e.to_string(),
+        };
+        let file = hdf5::File::append(&h5).map_err(h5err)?;
+        let mut w = SnapshotWriter {
+            xdmf: dir.join(format!("{case_hash}.xdmf")),
+            file,
+            grids: Vec::new(),
+            h5: h5.clone(),
+        };
+        let mut names = w.file.member_names().map_err(h5err)?;
+        names.sort();
+        for name in names {
+            let Some(s) = name
+                .strip_prefix("step_")
+                .and_then(|n| n.parse::<u64>().ok())
+            else {
+                continue;
+            };
+            if s > step {
+                w.file.unlink(&name).map_err(h5err)?;
+                continue;
+            }
+            let g = w.file.group(&name).map_err(h5err)?;
+            let t: f64 = g
+                .attr("time")
+                .and_then(|a| a.read_scalar())
+                .map_err(h5err)?;
+            let n = g.dataset("coords").map_err(h5err)?.shape()[0];
+            let ne = g.dataset("quads").map_err(h5err)?.shape()[0];
+            let mut fields = Vec::new();
+            for f in g.member_names().map_err(h5err)? {
+                if f != "coords" && f != "quads" {
+                    let shape = g.dataset(&f).map_err(h5err)?.shape();
+                    fields.push((f, if shape.len() == 1 { 1 } else { 3 }));
+                }
+            }
+            let grid = w.grid_xml(&name, t, n, ne, &fields);
+            w.grids.push(grid);
+        }
+        w.file.flush().map_err(h5err)?;
+        w.write_xdmf()?;
+        Ok(w)
+    }
+
+    /// The XDMF Grid of one snapshot group with its fields (name, 1 or 3 components).
+    fn grid_xml(
+        &self,
+        name: &str,
+        t: f64,
+        n: usize,
+        ne: usize,
+        fields: &[(String, usize)],
+    ) -> String {
+        let h5_name = self
+            .h5
+            .file_name()
+            .map(|f| f.to_string_lossy().into_owned())
+            .unwrap_or_default();
+        let attrs: String = fields
+            .iter()
+            .map(|(f, c)| {
+                let (dims, kind) = if *c == 1 {
+                    (format!("{n}"), "Scalar")
+                } else {
+                    (format!("{n} 3"), "Vector")
+                };
+                format!(
+                    "        <Attribute Name=\"{f}\" AttributeType=\"{kind}\" Center=\"Node\">\n          <DataItem Dimensions=\"{dims}\" NumberType=\"Float\" Precision=\"8\" Format=\"HDF\">{h5_name}:/{name}/{f}</DataItem>\n        </Attribute>\n"
+                )
+            })
+            .collect();
+        format!(
+            "      <Grid Name=\"{name}\" GridType=\"Uniform\">\n        <Time Value=\"{t}\"/>\n        <Topology TopologyType=\"Quadrilateral\" NumberOfElements=\"{ne}\">\n          <DataItem Dimensions=\"{ne} 4\" NumberType=\"UInt\" Precision=\"8\" Format=\"HDF\">{h5_name}:/{name}/quads</DataItem>\n        </Topology>\n        <Geometry GeometryType=\"XY\">\n          <DataItem Dimensions=\"{n} 2\" NumberType=\"Float\" Precision=\"8\" Format=\"HDF\">{h5_name}:/{name}/coords</DataItem>\n        </Geometry>\n{attrs}      </Grid>\n"
+        )
+    }
+
+    /// Rewrites the XDMF file listing every snapshot so far (write-then-rename, so a reader never
+    /// sees a half-written sidecar).
+    fn write_xdmf(&self) -> Result<()> {
+        let xml = format!(
+            "<?xml version=\"1.0\" ?>\n<Xdmf Version=\"3.0\">\n  <Domain>\n    <Grid Name=\"snapshots\" GridType=\"Collection\" CollectionType=\"Temporal\">\n{}    </Grid>\n  </Domain>\n</Xdmf>\n",
+            self.grids.concat()
+        );
+        let tmp = self.xdmf.with_extension("xdmf.tmp");
+        std::fs::write(&tmp, xml)
+            .and_then(|_| std::fs::rename(&tmp, &self.xdmf))
+            .map_err(|source| StoreError::Io {
+                path: self.xdmf.clone(),
+                source,
+            })
+    }
+
     /// The HDF5 file.
     pub fn h5_path(&self) -> &Path {
         &self.h5
@@ -76,12 +178,7 @@ impl SnapshotWriter {
             .create("time")
             .and_then(|a| a.write_scalar(&s.t))
             .map_err(h5err)?;
-        let h5_name = self
-            .h5
-            .file_name()
-            .map(|f| f.to_string_lossy().into_owned())
-            .unwrap_or_default();
-        let mut attrs = String::new();
+        let mut fields = Vec::with_capacity(s.fields.len());
         for f in &s.fields {
             assert_eq!(
                 f.values.len(),
@@ -89,49 +186,27 @@ impl SnapshotWriter {
                 "field {} has the wrong length",
                 f.name
             );
-            let (values, dims, kind) = if f.components == 1 {
-                (f.values.clone(), format!("{n}"), "Scalar")
+            let (values, shape) = if f.components == 1 {
+                (f.values.clone(), vec![n])
             } else {
                 let v: Vec<f64> = f
                     .values
                     .chunks(f.components)
                     .flat_map(|c| [c[0], c.get(1).copied().unwrap_or(0.0), 0.0])
                     .collect();
-                (v, format!("{n} 3"), "Vector")
-            };
-            let shape: Vec<usize> = if f.components == 1 {
-                vec![n]
-            } else {
-                vec![n, 3]
+                (v, vec![n, 3])
             };
             g.new_dataset::<f64>()
                 .shape(shape)
                 .create(f.name.as_str())
                 .and_then(|d| d.write_raw(&values))
                 .map_err(h5err)?;
-            attrs += &format!(
-                "        <Attribute Name=\"{0}\" AttributeType=\"{kind}\" Center=\"Node\">\n          <DataItem Dimensions=\"{dims}\" NumberType=\"Float\" Precision=\"8\" Format=\"HDF\">{h5_name}:/{name}/{0}</DataItem>\n        </Attribute>\n",
-                f.name
-            );
+            fields.push((f.name.clone(), if f.components == 1 { 1 } else { 3 }));
         }
         self.file.flush().map_err(h5err)?;
-        self.grids.push(format!(
-            "      <Grid Name=\"{name}\" GridType=\"Uniform\">\n        <Time Value=\"{t}\"/>\n        <Topology TopologyType=\"Quadrilateral\" NumberOfElements=\"{ne}\">\n          <DataItem Dimensions=\"{ne} 4\" NumberType=\"UInt\" Precision=\"8\" Format=\"HDF\">{h5_name}:/{name}/quads</DataItem>\n        </Topology>\n        <Geometry GeometryType=\"XY\">\n          <DataItem Dimensions=\"{n} 2\" NumberType=\"Float\" Precision=\"8\" Format=\"HDF\">{h5_name}:/{name}/coords</DataItem>\n        </Geometry>\n{attrs}      </Grid>\n",
-            t = s.t,
-            ne = s.quads.len(),
-        ));
-        let xml = format!(
-            "<?xml version=\"1.0\" ?>\n<Xdmf Version=\"3.0\">\n  <Domain>\n    <Grid Name=\"snapshots\" GridType=\"Collection\" CollectionType=\"Temporal\">\n{}    </Grid>\n  </Domain>\n</Xdmf>\n",
-            self.grids.concat()
-        );
-        // Write-then-rename so a reader never sees a half-written sidecar.
-        let tmp = self.xdmf.with_extension("xdmf.tmp");
-        std::fs::write(&tmp, xml)
-            .and_then(|_| std::fs::rename(&tmp, &self.xdmf))
-            .map_err(|source| StoreError::Io {
-                path: self.xdmf.clone(),
-                source,
-            })
+        let grid = self.grid_xml(&name, s.t, n, s.quads.len(), &fields);
+        self.grids.push(grid);
+        self.write_xdmf()
     }
 }
 

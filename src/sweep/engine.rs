@@ -36,12 +36,16 @@ pub struct SweepOptions {
     pub progress: ProgressMode,
     /// Wall-clock seconds between sample checkpoints of a running case.
     pub checkpoint_every: Duration,
+    /// Wall-clock seconds between saved solver states of a running case (zero: every step); a
+    /// killed case continues from its last one.
+    pub state_every: Duration,
     /// Directory of HDF5 snapshots (default `<db dir>/<sweep name>/`).
     pub snapshot_dir: Option<PathBuf>,
 }
 
 impl SweepOptions {
-    /// Defaults: jobs = cores, plain log, checkpoints every minute.
+    /// Defaults: jobs = cores, plain log, sample checkpoints every minute, solver states every
+    /// five minutes.
     pub fn new(db: PathBuf) -> SweepOptions {
         let cores = std::thread::available_parallelism().map_or(1, |n| n.get());
         SweepOptions {
@@ -51,6 +55,7 @@ impl SweepOptions {
             retry_failed: false,
             progress: ProgressMode::Plain,
             checkpoint_every: Duration::from_secs(60),
+            state_every: Duration::from_secs(300),
             snapshot_dir: None,
         }
     }
@@ -231,14 +236,28 @@ fn run_one(
     ctx: &CaseContext<'_>,
 ) -> Result<Option<(String, bool)>, StoreError> {
     let mut store = Store::open(&ctx.opts.db)?;
-    let Some(case_id) = store.claim(&case.id)? else {
+    let resume_path = ctx.snapshot_dir.join(format!("{}.resume.json", case.id));
+    let saved = ResumeFile::load(&resume_path, &case.id);
+    let Some(claim) = store.claim(&case.id, saved.as_ref().map(|r| (r.step, r.rows)))? else {
         return Ok(None);
     };
+    let case_id = claim.id;
+    let saved = saved.filter(|_| claim.resumed);
+    if let Some(r) = &saved {
+        ctx.progress.log(&format!(
+            "resume {} ({}) from step {} (t = {}), saved by {}",
+            case.label, case.id, r.step, r.t, r.code_version
+        ));
+    }
     let started = Instant::now();
     let bar = ctx
         .progress
         .start_case(&case.label, &case.id, case.spec.numerics.t_end);
     let mut rec = Recorder::new(&mut store, case_id, &case.spec, &case.id, ctx, bar);
+    rec.resume_path = resume_path.clone();
+    if let Some(r) = saved {
+        rec.resume_from(r);
+    }
     let result = catch_unwind(AssertUnwindSafe(|| {
         ctx.runner.run(&case.spec, ctx.threads, &mut rec)
     }));
@@ -274,11 +293,16 @@ fn run_one(
         RunStatus::Diverged { reason } => (Some(rec.classifier.diverged(t, &reason)), Some(reason)),
         RunStatus::Failed { error } => (None, Some(error)),
     };
-    if let Some(e) = rec.snapshot_error.take() {
-        error = Some(match error {
-            Some(prev) => format!("{prev}; snapshot: {e}"),
-            None => format!("snapshot: {e}"),
-        });
+    for (what, e) in [
+        ("snapshot", rec.snapshot_error.take()),
+        ("saved state", rec.state_error.take()),
+    ] {
+        if let Some(e) = e {
+            error = Some(match error {
+                Some(prev) => format!("{prev}; {what}: {e}"),
+                None => format!("{what}: {e}"),
+            });
+        }
     }
     let mut samples = std::mem::take(&mut rec.buffer);
     if let Some(last) = rec.last.take() {
@@ -287,6 +311,7 @@ fn run_one(
         }
     }
     let bar = rec.bar.take();
+    let wall_before = rec.wall_before;
     drop(rec);
     let summary = match (&outcome, &error) {
         (Some(o), Some(e)) if o.kind == OutcomeKind::Diverged => format!("diverged ({e})"),
@@ -302,12 +327,14 @@ fn run_one(
         samples,
         outcome,
         error,
-        wall_s: started.elapsed().as_secs_f64(),
+        wall_s: wall_before + started.elapsed().as_secs_f64(),
         steps,
         t_reached: t,
         run_id: ctx.run_id,
     };
     store.finish_case(case_id, &record)?;
+    // a finished case (whatever its outcome) is never resumed
+    std::fs::remove_file(&resume_path).ok();
     if let Some(bar) = bar {
         ctx.progress.finish_case(bar, &summary);
     }
@@ -331,6 +358,18 @@ struct Recorder<'a> {
     snapshots: Option<SnapshotWriter>,
     snapshot_error: Option<String>,
     bar: Option<CaseProgress>,
+    /// Where the solver state goes (`<snapshot dir>/<hash>.resume.json`).
+    resume_path: PathBuf,
+    state_every: Duration,
+    last_state: Instant,
+    state_error: Option<String>,
+    /// The state a resumed case continues from, until the runner takes it.
+    resume_state: Option<String>,
+    /// The step a resumed case continues after (its snapshots up to there are kept).
+    resumed_at: Option<u64>,
+    /// Wall-clock seconds spent on the case by earlier, interrupted attempts.
+    wall_before: f64,
+    started: Instant,
 }
 
 impl<'a> Recorder<'a> {
@@ -357,7 +396,65 @@ impl<'a> Recorder<'a> {
             snapshots: None,
             snapshot_error: None,
             bar: Some(bar),
+            resume_path: PathBuf::new(),
+            state_every: ctx.opts.state_every,
+            last_state: Instant::now(),
+            state_error: None,
+            resume_state: None,
+            resumed_at: None,
+            wall_before: 0.0,
+            started: Instant::now(),
         }
+    }
+
+    /// Continues an interrupted attempt: the classifier, the last sample and the solver state as
+    /// they were saved.
+    fn resume_from(&mut self, r: ResumeFile) {
+        self.classifier = r.classifier;
+        self.stored_step = r.stored_step;
+        self.last = Some(r.last);
+        self.wall_before = r.wall_s;
+        self.resumed_at = Some(r.step);
+        self.resume_state = Some(r.solver.get().to_string());
+    }
+
+    /// Writes the resume file for `step` (samples flushed first, so that the database holds every
+    /// sample up to `step` whenever the file says so).
+    fn write_state(&mut self, step: u64, state: &str) -> Result<(), String> {
+        let Some(last) = self.last.clone().filter(|s| s.step == step) else {
+            return Err(format!("step {step} was not reported before its state"));
+        };
+        self.flush();
+        if !self.buffer.is_empty() {
+            return Err("samples could not be written".into());
+        }
+        let rows = self
+            .store
+            .count_samples(self.case_id, step)
+            .map_err(|e| e.to_string())?;
+        let file = ResumeFile {
+            format: RESUME_FORMAT,
+            case_hash: self.hash.to_string(),
+            code_version: crate::store::code_version(),
+            step,
+            t: last.t,
+            rows,
+            stored_step: self.stored_step,
+            last,
+            classifier: self.classifier.clone(),
+            wall_s: self.wall_before + self.started.elapsed().as_secs_f64(),
+            solver: serde_json::value::RawValue::from_string(state.to_string())
+                .map_err(|e| format!("solver state is not JSON: {e}"))?,
+        };
+        let json = serde_json::to_string(&file).map_err(|e| e.to_string())?;
+        let io = |e: std::io::Error| format!("{}: {e}", self.resume_path.display());
+        if let Some(dir) = self.resume_path.parent() {
+            std::fs::create_dir_all(dir).map_err(io)?;
+        }
+        // write-then-rename: a kill leaves the previous state or this one, never half of one
+        let tmp = self.resume_path.with_extension("json.tmp");
+        std::fs::write(&tmp, json).map_err(io)?;
+        std::fs::rename(&tmp, &self.resume_path).map_err(io)
     }
 
     fn flush(&mut self) {
@@ -402,7 +499,11 @@ impl CaseObserver for Recorder<'_> {
 
     fn on_snapshot(&mut self, snapshot: &FieldSnapshot) {
         if self.snapshots.is_none() && self.snapshot_error.is_none() {
-            match SnapshotWriter::create(self.snapshot_dir, self.hash) {
+            let opened = match self.resumed_at {
+                Some(step) => SnapshotWriter::reopen(self.snapshot_dir, self.hash, step),
+                None => SnapshotWriter::create(self.snapshot_dir, self.hash),
+            };
+            match opened {
                 Ok(w) => self.snapshots = Some(w),
                 Err(e) => self.snapshot_error = Some(e.to_string()),
             }
@@ -420,5 +521,52 @@ impl CaseObserver for Recorder<'_> {
 
     fn checkpoint(&mut self) {
         self.flush();
+    }
+
+    fn state_due(&self, _step: u64) -> bool {
+        self.last_state.elapsed() >= self.state_every
+    }
+
+    fn save_state(&mut self, step: u64, state: &str) {
+        if let Err(e) = self.write_state(step, state) {
+            self.state_error.get_or_insert(e);
+        }
+        self.last_state = Instant::now();
+    }
+
+    fn resume_state(&mut self) -> Option<String> {
+        self.resume_state.take()
+    }
+}
+
+/// Layout version of the resume file.
+const RESUME_FORMAT: u32 = 1;
+
+/// A running case's saved state: what the observer had seen (classifier, last sample, how many
+/// sample rows the database held) and the runner's own state, after one step.
+#[derive(serde::Serialize, serde::Deserialize)]
+struct ResumeFile {
+    format: u32,
+    case_hash: String,
+    /// The build that wrote it (a resumed case may finish with another; the log says so).
+    code_version: String,
+    step: u64,
+    t: f64,
+    /// Sample rows of the case with step ≤ `step` when it was written.
+    rows: u64,
+    stored_step: Option<u64>,
+    last: Sample,
+    classifier: Classifier,
+    wall_s: f64,
+    solver: Box<serde_json::value::RawValue>,
+}
+
+impl ResumeFile {
+    /// The saved state of case `hash`, if there is a readable one of this layout.
+    fn load(path: &std::path::Path, hash: &str) -> Option<ResumeFile> {
+        let text = std::fs::read_to_string(path).ok()?;
+        serde_json::from_str::<ResumeFile>(&text)
+            .ok()
+            .filter(|r| r.format == RESUME_FORMAT && r.case_hash == hash)
     }
 }

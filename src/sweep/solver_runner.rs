@@ -17,7 +17,7 @@ use crate::solver::constitutive_stress::Coupling;
 use crate::solver::couette::CouetteGeometry;
 use crate::solver::cutcells::level_set;
 use crate::solver::motion::{FlowFields, MotionEnd, ShearCase};
-use crate::solver::moving::{Domain, MovingEnd, MovingParticles, ShearDomain};
+use crate::solver::moving::{Domain, MovingCheckpoint, MovingEnd, MovingParticles, ShearDomain};
 use crate::solver::rigid::{Motion, Particle};
 use crate::solver::viscoelastic::ViscoelasticParams;
 use crate::sweep::runner::{CaseResult, CaseRunner, RunStatus};
@@ -290,17 +290,30 @@ fn run_moving<D: Domain>(
             })
             .collect(),
     };
-    if obs.snapshot_due(0) {
-        obs.on_snapshot(&snapshot(0, 0.0, sim.flow().mesh(), &fields(&sim), period));
+    if let Some(saved) = obs.resume_state() {
+        // an interrupted attempt saved its state: continue from there (the observer already
+        // has everything up to that step)
+        let restored = serde_json::from_str::<MovingCheckpoint>(&saved)
+            .map_err(|e| e.to_string())
+            .and_then(|cp| sim.restore(cp).map_err(|e| e.to_string()));
+        if let Err(e) = restored {
+            return failed(format!(
+                "cannot continue from the saved state ({e}); rerun with --retry-failed to start over"
+            ));
+        }
+    } else {
+        if obs.snapshot_due(0) {
+            obs.on_snapshot(&snapshot(0, 0.0, sim.flow().mesh(), &fields(&sim), period));
+        }
+        if obs.on_step(&sample(0, 0.0, sim.state())) != Control::Continue {
+            return CaseResult {
+                status: RunStatus::Finished,
+                steps: 0,
+                t: 0.0,
+            };
+        }
     }
-    if obs.on_step(&sample(0, 0.0, sim.state())) != Control::Continue {
-        return CaseResult {
-            status: RunStatus::Finished,
-            steps: 0,
-            t: 0.0,
-        };
-    }
-    let (mut last_step, mut last_t) = (0, 0.0);
+    let (mut last_step, mut last_t) = (sim.flow().history().steps() as u64, sim.time());
     let end = sim.run(t_end, false, |sim, report| {
         let step = report.flow.step as u64;
         let t = sim.time();
@@ -310,7 +323,12 @@ fn run_moving<D: Domain>(
             obs.on_snapshot(&snapshot(step, t, sim.flow().mesh(), &fields(sim), period));
         }
         let keep = obs.on_step(&sample(step, t, sim.state())) == Control::Continue;
-        if step.is_multiple_of(50) {
+        if keep && obs.state_due(step) {
+            // (serializing plain numbers cannot fail)
+            if let Ok(state) = serde_json::to_string(&sim.checkpoint()) {
+                obs.save_state(step, &state);
+            }
+        } else if step.is_multiple_of(50) {
             obs.checkpoint();
         }
         keep
