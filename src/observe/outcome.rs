@@ -11,7 +11,8 @@
 //!    at least [`MIN_APPROACH`]·a and then grown back to Δx₀ (reversed trajectories, thesis 5.6.2).
 //!
 //! At the end time, an undecided case is: Couette `migrated` if |r* − r0*| ≥ [`MIGRATION_MIN`], else
-//! `steady`; cylinder channel `steady`; otherwise `timeout`.
+//! `steady` if ω* has met the steady test of rule 4 for its last [`STEADY_HOLD_STEPS`] steps, else
+//! `timeout` (a run too short to tell); cylinder channel `steady`; otherwise `timeout`.
 
 use serde_json::{json, Value};
 
@@ -49,7 +50,8 @@ pub enum OutcomeKind {
     WallContact,
     /// Couette: the particle moved by at least [`MIGRATION_MIN`] in r*.
     Migrated,
-    /// Steady without a chain, a Couette particle that stayed, or a finished cylinder benchmark.
+    /// Steady without a chain, a Couette particle that stayed and rotates steadily, or a finished
+    /// cylinder benchmark.
     Steady,
     /// Non-finite state, solver failure to converge or a panic.
     Diverged,
@@ -183,8 +185,11 @@ impl Classifier {
                     });
                 if moved >= MIGRATION_MIN {
                     OutcomeKind::Migrated
-                } else {
+                } else if self.steady_steps >= STEADY_HOLD_STEPS {
                     OutcomeKind::Steady
+                } else {
+                    // neither moved nor settled: the run was too short to tell
+                    OutcomeKind::Timeout
                 }
             }
             Geometry::CylinderChannel { .. } => OutcomeKind::Steady,

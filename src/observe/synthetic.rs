@@ -70,7 +70,13 @@ pub fn sample(kind: OutcomeKind, spec: &CaseSpec, step: u64, t: f64) -> Sample {
                         };
                         let r = r0 + (goal - r0) * (1.0 - decay);
                         let phi = p0[1].atan2(p0[0]) + 0.1 * ts;
-                        (layout::couette_position(r1, r2, r, phi), wobble)
+                        // a particle that stays rotates steadily; a migrating one need not
+                        let omega_star = if kind == OutcomeKind::Steady {
+                            0.5
+                        } else {
+                            wobble
+                        };
+                        (layout::couette_position(r1, r2, r, phi), omega_star)
                     }
                     _ => (p0, wobble),
                 },

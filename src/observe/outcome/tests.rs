@@ -92,6 +92,11 @@ fn couette_migration_by_final_r_star() {
         classify(OutcomeKind::WallContact, &couette()).kind,
         OutcomeKind::WallContact
     );
+    // a particle neither moved nor settled (a short run): undecided, not `steady`
+    assert_eq!(
+        classify(OutcomeKind::Timeout, &couette()).kind,
+        OutcomeKind::Timeout
+    );
 }
 
 #[test]
