@@ -16,12 +16,18 @@ fn scratch(name: &str) -> PathBuf {
     d
 }
 
+/// A fresh scratch directory `name` with the sweep file `s.toml`; returns (directory, file).
+fn sweep_file(name: &str, toml: &str) -> (PathBuf, PathBuf) {
+    let dir = scratch(name);
+    let file = dir.join("s.toml");
+    std::fs::write(&file, toml).unwrap();
+    (dir, file)
+}
+
 #[test]
 fn a_real_stokes_sweep_records_samples_outcomes_and_snapshots() {
-    let dir = scratch("solver-sweep");
-    let file = dir.join("s.toml");
-    std::fs::write(
-        &file,
+    let (dir, file) = sweep_file(
+        "solver-sweep",
         r#"
 name = "tiny"
 [base]
@@ -33,8 +39,7 @@ output = { sample_every = 1, snapshot_every = 2 }
 [axes]
 particles.layout.pair.ly = [0.06, 0.08]
 "#,
-    )
-    .unwrap();
+    );
     let spec = SweepSpec::from_file(&file).unwrap();
     let cases = expand(&spec).unwrap();
     let db = dir.join("tiny.db");
@@ -95,9 +100,7 @@ particles.layout.pair.ly = [0.06, 0.08]
 
 /// Runs a one-case sweep file and returns (status, number of samples, last sample (x, y, u, ω)).
 fn run_one(name: &str, toml: &str) -> (String, i64, [f64; 4]) {
-    let dir = scratch(name);
-    let file = dir.join("s.toml");
-    std::fs::write(&file, toml).unwrap();
+    let (dir, file) = sweep_file(name, toml);
     let spec = SweepSpec::from_file(&file).unwrap();
     let cases = expand(&spec).unwrap();
     let db = dir.join("one.db");
@@ -184,10 +187,8 @@ fn a_point_symmetric_pair_stays_symmetric() {
     // break this (no ghost penalty in the flow: velocities of 1e5 at sliver nodes; ω₁ − ω₂ up
     // to 1.2e-4 within these 50 steps); with the flow's ghost penalty it stays ~2e-8 (measured).
     const SYMMETRY_TOL: f64 = 1e-6;
-    let dir = scratch("symmetric-pair");
-    let file = dir.join("s.toml");
-    std::fs::write(
-        &file,
+    let (dir, file) = sweep_file(
+        "symmetric-pair",
         r#"
 name = "pair"
 [base]
@@ -197,8 +198,7 @@ particles = { radius = 0.1, layout.pair = { lx = 0.5, ly = 0.06 } }
 numerics = { mesh = [100, 25], dt = 0.02, t_end = 1.0 }
 output = { sample_every = 1 }
 "#,
-    )
-    .unwrap();
+    );
     let spec = SweepSpec::from_file(&file).unwrap();
     let cases = expand(&spec).unwrap();
     let db = dir.join("pair.db");
@@ -234,10 +234,8 @@ output = { sample_every = 1 }
 fn a_killed_case_continues_from_its_saved_state() {
     // the restored flow pattern may order the factorization differently: round-off only
     const RESUME_TOL: f64 = 1e-9;
-    let dir = scratch("resume");
-    let file = dir.join("s.toml");
-    std::fs::write(
-        &file,
+    let (dir, file) = sweep_file(
+        "resume",
         r#"
 name = "resume"
 [base]
@@ -247,8 +245,7 @@ particles = { radius = 0.1, layout.pair = { lx = 0.5, ly = 0.06 } }
 numerics = { mesh = [40, 10], dt = 0.02, t_end = 2.0 }
 output = { sample_every = 1, snapshot_every = 10 }
 "#,
-    )
-    .unwrap();
+    );
     let exe = env!("CARGO_BIN_EXE_xpflow");
     let sweep = |db: &PathBuf| {
         let mut c = std::process::Command::new(exe);

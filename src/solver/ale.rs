@@ -748,6 +748,17 @@ mod tests {
         assert!(on_patch >= 4, "{on_patch}");
     }
 
+    /// The pre-image xⁿ (in element e at ξ) moved by the displacement there: xⁿ + d(xⁿ).
+    fn displaced(mesh: &Mesh, d: &[[f64; 2]], e: usize, xi: [f64; 2], xn: [f64; 2]) -> [f64; 2] {
+        let dn = q1(xi).0;
+        std::array::from_fn(|i| {
+            xn[i]
+                + (0..4)
+                    .map(|a| dn[a] * d[mesh.element_vertices[e][a]][i])
+                    .sum::<f64>()
+        })
+    }
+
     #[test]
     fn pre_images_invert_the_ale_mesh_and_bilinear_fields_map_exactly() {
         let mesh = channel();
@@ -766,14 +777,9 @@ mod tests {
             let x = mesh.nodes[k];
             let (e, xi, xn) = pre_image(&mesh, d, x, Some(2.0)).unwrap();
             // x = xⁿ + d(xⁿ)
-            let dn = q1(xi).0;
-            let dd: [f64; 2] = std::array::from_fn(|i| {
-                (0..4)
-                    .map(|a| dn[a] * d[mesh.element_vertices[e][a]][i])
-                    .sum()
-            });
-            assert!((xn[0] + dd[0] - x[0]).abs() < LOCATE_TOL, "{x:?} {xn:?}");
-            assert!((xn[1] + dd[1] - x[1]).abs() < LOCATE_TOL);
+            let back = displaced(&mesh, d, e, xi, xn);
+            assert!((back[0] - x[0]).abs() < LOCATE_TOL, "{x:?} {xn:?}");
+            assert!((back[1] - x[1]).abs() < LOCATE_TOL);
             // a field linear in y is interpolated exactly by Q1
             let (vs, w) = m.at_n[v];
             let g: f64 = (0..9).map(|a| fv[vs[a]] * w[a]).sum();
@@ -799,13 +805,7 @@ mod tests {
         for &k in &mesh.node_of_vertex {
             let x = mesh.nodes[k];
             let (e, xi, xn) = pre_image(&mesh, d, x, Some(2.0)).unwrap();
-            let dn = q1(xi).0;
-            let dd: [f64; 2] = std::array::from_fn(|i| {
-                (0..4)
-                    .map(|a| dn[a] * d[mesh.element_vertices[e][a]][i])
-                    .sum()
-            });
-            let back = nearest_image([xn[0] + dd[0], xn[1] + dd[1]], x, Some(2.0));
+            let back = nearest_image(displaced(&mesh, d, e, xi, xn), x, Some(2.0));
             assert!((back[0] - x[0]).abs() < LOCATE_TOL, "{x:?} {xn:?}");
             assert!((back[1] - x[1]).abs() < LOCATE_TOL);
         }
