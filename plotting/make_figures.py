@@ -33,6 +33,7 @@ SCRIPTS = [
     "alignment_steady",
     "regime_map",
     "string_tables",
+    "mesh_convergence",
     "field_snapshots",
 ]
 

@@ -1,9 +1,10 @@
 //! Figures end to end: builds a small results database with the fake runner (confined-shear cases ending
 //! in string / repel / pass / jammed / diverged, a δ × Wi regime sweep, Couette migration cases over r0*,
-//! Wi, α and ε, and one case with an HDF5 snapshot file), runs `plotting/make_figures.py` on it with the
-//! Python of the repository's `.venv/` (created by `make figures-deps` when missing), and checks that every
-//! expected figure exists as a valid PNG and PDF and every table as Markdown. A second test runs the
-//! scripts on an empty database: they must still succeed and produce figures that say what is missing.
+//! Wi, α and ε, one case with an HDF5 snapshot file, and a Couette and a shear set-up on two meshes), runs
+//! `plotting/make_figures.py` on it with the Python of the repository's `.venv/` (created by
+//! `make figures-deps` when missing), and checks that every expected figure exists as a valid PNG and PDF
+//! and every table as Markdown. A second test runs the scripts on an empty database: they must still
+//! succeed and produce figures that say what is missing.
 //!
 //! Needs python3 (≥ 3.11) with venv/pip and the network (PyPI) the first time; if they are missing the test
 //! fails with the message of `make figures-deps`, it does not skip.
@@ -28,10 +29,13 @@ const EXPECTED_FIGURES: &[&str] = &[
     "alignment_velocities",
     "alignment_steady_omega",
     "regime_map",
+    "mesh_convergence",
     "field_snapshots",
 ];
 /// Markdown tables (thesis Tables 5.2–5.4 style).
 const EXPECTED_TABLES: &[&str] = &["tables/string_formation.md", "tables/string_summary.md"];
+/// The mesh-convergence table (thesis Table 3.1 style).
+const MESH_TABLE: &str = "tables/mesh_convergence.md";
 /// Figures made even from an empty database (each saying what is missing); `field_snapshots` is skipped.
 const EMPTY_DB_FIGURES: &[&str] = &[
     "migration_r_by_r0",
@@ -40,6 +44,7 @@ const EMPTY_DB_FIGURES: &[&str] = &[
     "alignment_velocities",
     "alignment_steady_omega",
     "regime_map",
+    "mesh_convergence",
 ];
 /// A rendered figure with axes, text and lines is tens of kB; an empty or truncated PNG is far smaller.
 const MIN_PNG_BYTES: u64 = 10_000;
@@ -109,7 +114,7 @@ fn couette_behaviour(s: &CaseSpec) -> FakeBehaviour {
     }
 }
 
-/// The database of the test (43 fake cases; a second or two).
+/// The database of the test (45 fake cases; a second or two).
 fn build_database(dir: &Path) -> PathBuf {
     let db = dir.join("figs.db");
     let shear = sweep(
@@ -184,9 +189,48 @@ output = { sample_every = 10, snapshot_every = 300 }
         &snap,
         &FakeRunner::new(|_| FakeBehaviour::Produce(OutcomeKind::String)),
     );
+    // Mesh convergence: one Couette and one shear set-up on two meshes; the coarser case of each is a
+    // case of the sweeps above (same case id, run once), so each sweep adds one case.
+    let couette_mesh = sweep(
+        dir,
+        "couette_mesh.toml",
+        r#"
+name = "couette_mesh"
+[base]
+geometry.couette = { r1 = 1.0, r2 = 4.0 }
+fluid = { model = "giesekus", wi = 1.0, alpha = 0.01, beta = 0.1 }
+particles = { eps = 0.26666666666666666, layout.couette = { r0_star = 0.5 } }
+numerics = { mesh = [20, 80], dt = 0.05, t_end = 30.0 }
+output = { sample_every = 4 }
+[axes]
+numerics.mesh = [[20, 80], [30, 120]]
+"#,
+    );
+    run(&db, &couette_mesh, &FakeRunner::new(couette_behaviour));
+    let shear_mesh = sweep(
+        dir,
+        "shear_mesh.toml",
+        r#"
+name = "shear_mesh"
+[base]
+geometry.confined_shear = { h = 1.0, l = 4.0 }
+fluid = { model = "giesekus", wi = 2.0, alpha = 0.01, beta = 0.1 }
+particles = { radius = 0.1, layout.string = { n = 2, lx = 0.5, ly = 0.1 } }
+numerics = { mesh = [40, 10], dt = 0.01, t_end = 20.0 }
+output = { sample_every = 10 }
+[axes]
+numerics.mesh = [[40, 10], [80, 20]]
+"#,
+    );
+    run(&db, &shear_mesh, &FakeRunner::new(shear_behaviour));
     let store = Store::open(&db).unwrap();
     let count = |sql: &str| -> i64 { store.connection().query_row(sql, [], |r| r.get(0)).unwrap() };
-    assert_eq!(count("SELECT COUNT(*) FROM cases"), 12 + 6 + 24 + 1);
+    assert_eq!(count("SELECT COUNT(*) FROM cases"), 12 + 6 + 24 + 1 + 2);
+    assert_eq!(
+        count("SELECT COUNT(*) FROM sweep_cases sc JOIN sweeps s ON s.id = sc.sweep_id WHERE s.name IN ('couette_mesh', 'shear_mesh')"),
+        4,
+        "the two mesh sweeps have two cases each"
+    );
     for kind in [
         "string", "repel", "pass", "jammed", "diverged", "migrated", "steady",
     ] {
@@ -332,6 +376,15 @@ fn figures_from_a_fake_sweep_database() {
         table.contains("| Wi = 1 | - | - |"),
         "string formation table:\n{table}"
     );
+    // Mesh convergence: both set-ups compared, coarse → fine.
+    let mesh = std::fs::read_to_string(figs.join(MESH_TABLE))
+        .unwrap_or_else(|e| panic!("missing table {MESH_TABLE}: {e}\n{log}"));
+    for row in ["| 20×80 → 30×120 | r\\* |", "| 40×10 → 80×20 | y/H |"] {
+        assert!(
+            mesh.contains(row),
+            "mesh convergence table has no row {row}:\n{mesh}"
+        );
+    }
 }
 
 #[test]
@@ -347,6 +400,12 @@ fn figures_from_an_empty_database_say_what_is_missing() {
         check_png(&figs.join(format!("{name}.png")));
         check_pdf(&figs.join(format!("{name}.pdf")));
     }
+    let mesh = std::fs::read_to_string(figs.join(MESH_TABLE))
+        .unwrap_or_else(|e| panic!("missing table {MESH_TABLE}: {e}\n{log}"));
+    assert!(
+        mesh.contains("Nothing to compare yet"),
+        "the mesh table says what is missing:\n{mesh}"
+    );
     assert!(
         !figs.join("field_snapshots.png").exists(),
         "no snapshot exists, so no snapshot figure"
