@@ -264,6 +264,15 @@ impl Classifier {
         None
     }
 
+    /// The scale of ω* in the final state: γ̇ in confined shear (thesis §5.7), ω̄ of the inner
+    /// cylinder in the Couette cell (thesis §3.5: ω* = ω/ω̄, as the figures and `query` use).
+    fn omega_scale(&self) -> f64 {
+        match self.geometry {
+            Geometry::Couette { omega_inner, .. } => omega_inner,
+            _ => self.rate,
+        }
+    }
+
     fn outcome(&self, kind: OutcomeKind, t: f64, reason: Option<&str>) -> Outcome {
         let ps: &[ParticleState] = self.last.as_ref().map_or(&[], |s| &s.particles);
         let centres: Vec<[f64; 2]> = ps.iter().map(|p| [p.x, p.y]).collect();
@@ -277,7 +286,7 @@ impl Classifier {
         let mut final_state = json!({
             "t": t,
             "positions": centres,
-            "omega_star": ps.iter().map(|p| p.omega / self.rate).collect::<Vec<_>>(),
+            "omega_star": ps.iter().map(|p| p.omega / self.omega_scale()).collect::<Vec<_>>(),
             "gaps_over_a": gaps.iter().map(|g| g / self.radius).collect::<Vec<_>>(),
         });
         if let Geometry::Couette { r1, r2, .. } = self.geometry {

@@ -92,6 +92,12 @@ fn couette_migration_by_final_r_star() {
         classify(OutcomeKind::WallContact, &couette()).kind,
         OutcomeKind::WallContact
     );
+    // ω* = ω/ω̄ in the Couette cell (thesis §3.5), not ω/γ̇: the synthetic steady particle
+    // rotates at 0.5γ̇ = 0.5 ω̄R1/(R2 − R1) = ω̄/6
+    let w = classify(OutcomeKind::Steady, &couette()).final_state["omega_star"][0]
+        .as_f64()
+        .unwrap();
+    assert!((w - 0.5 / 3.0).abs() < 1e-12, "ω* = {w}");
     // a particle neither moved nor settled (a short run): undecided, not `steady`
     assert_eq!(
         classify(OutcomeKind::Timeout, &couette()).kind,
