@@ -283,10 +283,11 @@ output = { sample_every = 1, snapshot_every = 10 }
     assert_eq!(reference.len(), 2 * 101, "steps 0..=100, two particles");
     // killed after some steps have been saved
     let db = dir.join("killed.db");
-    let state = dir.join("resume").join(format!(
-        "{}.resume.json",
-        expand(&SweepSpec::from_file(&file).unwrap()).unwrap()[0].id
-    ));
+    let id = expand(&SweepSpec::from_file(&file).unwrap()).unwrap()[0]
+        .id
+        .clone();
+    let state = xpflow::sweep::engine::resume_path(&db, &id);
+    assert_eq!(state, dir.join("killed").join(format!("{id}.resume.json")));
     let mut child = sweep(&db).spawn().unwrap();
     let t0 = std::time::Instant::now();
     while !std::fs::metadata(&state).is_ok_and(|m| m.len() > 0) || trajectory(&db).len() < 2 * 30 {
@@ -296,6 +297,18 @@ output = { sample_every = 1, snapshot_every = 10 }
     child.kill().unwrap();
     child.wait().unwrap();
     let partial = trajectory(&db).len();
+    // `xpflow status` tells where the rerun will continue
+    let status = std::process::Command::new(exe)
+        .arg("status")
+        .arg("--db")
+        .arg(&db)
+        .output()
+        .unwrap();
+    let status = String::from_utf8_lossy(&status.stdout).to_string();
+    assert!(
+        status.contains("interrupted") && status.contains("step "),
+        "{status}"
+    );
     assert!(
         partial < reference.len(),
         "killed too late ({partial} rows)"
@@ -327,15 +340,7 @@ output = { sample_every = 1, snapshot_every = 10 }
         .query_row("SELECT count(*) FROM snapshots", [], |r| r.get(0))
         .unwrap();
     assert_eq!(snaps, 11, "snapshots at steps 0, 10, …, 100");
-    let xdmf = std::fs::read_to_string(
-        state.with_file_name(
-            state
-                .file_name()
-                .unwrap()
-                .to_string_lossy()
-                .replace(".resume.json", ".xdmf"),
-        ),
-    )
-    .unwrap();
+    // snapshots go to <db dir>/<sweep name>/
+    let xdmf = std::fs::read_to_string(dir.join("resume").join(format!("{id}.xdmf"))).unwrap();
     assert_eq!(xdmf.matches("<Grid Name=\"step_").count(), 11);
 }

@@ -269,5 +269,55 @@ pub fn run_status_to(args: &StatusArgs, out: &mut dyn Write) -> anyhow::Result<E
         }
     }
     write!(out, "{}", t.render(Format::Table))?;
+    // the running (or interrupted) cases: how far they got and where a rerun continues
+    let mut r = Table {
+        columns: [
+            "database",
+            "sweep",
+            "case",
+            "label",
+            "process",
+            "t stored",
+            "t_end",
+            "saved state",
+        ]
+        .map(String::from)
+        .to_vec(),
+        rows: Vec::new(),
+    };
+    for db in &dbs {
+        for c in Store::open(db)?.running_cases()? {
+            let saved = match crate::sweep::engine::saved_state(db, &c.hash) {
+                Some((step, t, _)) => format!("step {step}, t = {t:.2}"),
+                None => "none (restarts at t = 0)".into(),
+            };
+            let process = match c.alive {
+                Some(true) => "running",
+                Some(false) => "interrupted",
+                None => "other host",
+            };
+            r.rows.push(vec![
+                db.display().to_string().into(),
+                c.sweep.into(),
+                c.hash.into(),
+                c.label.into(),
+                process.to_string().into(),
+                c.t_stored
+                    .map_or_else(|| "-".to_string(), |t| format!("{t:.2}"))
+                    .into(),
+                c.t_end
+                    .map_or_else(|| "-".to_string(), |t| format!("{t}"))
+                    .into(),
+                saved.into(),
+            ]);
+        }
+    }
+    if !r.rows.is_empty() {
+        writeln!(
+            out,
+            "\nrunning or interrupted cases (rerun the sweep to continue the interrupted ones):"
+        )?;
+        write!(out, "{}", r.render(Format::Table))?;
+    }
     Ok(ExitCode::SUCCESS)
 }

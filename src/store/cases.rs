@@ -54,6 +54,24 @@ pub struct SweepCounts {
     pub pending: i64,
 }
 
+/// A case marked running: by a live process, a killed one (a rerun continues it), or one on
+/// another host.
+#[derive(Debug, Clone, PartialEq)]
+pub struct RunningCase {
+    /// Sweep that registered the case.
+    pub sweep: String,
+    /// Case id.
+    pub hash: String,
+    /// Case label.
+    pub label: String,
+    /// End time of the case.
+    pub t_end: Option<f64>,
+    /// Time of the last stored sample.
+    pub t_stored: Option<f64>,
+    /// Whether its process is alive (`None`: another host, cannot tell).
+    pub alive: Option<bool>,
+}
+
 /// This process' owner tag for claimed cases: `host:pid`.
 fn owner() -> String {
     format!("{}:{}", hostname(), std::process::id())
@@ -362,6 +380,43 @@ impl Store {
         )
         .map_err(&err)?;
         tx.commit().map_err(err)
+    }
+
+    /// The cases marked running, with how far their stored samples go.
+    pub fn running_cases(&self) -> Result<Vec<RunningCase>> {
+        let err = self.sql_err();
+        let host = hostname();
+        let mut st = self
+            .conn
+            .prepare(
+                "SELECT s.name, c.case_hash, c.label, c.t_end, c.owner, c.owner_pid,
+                        (SELECT MAX(t) FROM samples WHERE case_id = c.id)
+                 FROM cases c JOIN sweeps s ON s.id = c.sweep_id
+                 WHERE c.status = 'running' ORDER BY s.name, c.id",
+            )
+            .map_err(&err)?;
+        let rows = st
+            .query_map([], |r| {
+                let owner: Option<String> = r.get(4)?;
+                let pid: Option<i64> = r.get(5)?;
+                let same_host = owner
+                    .as_deref()
+                    .is_some_and(|o| o.rsplit_once(':').is_some_and(|(h, _)| h == host));
+                Ok(RunningCase {
+                    sweep: r.get(0)?,
+                    hash: r.get(1)?,
+                    label: r.get(2)?,
+                    t_end: r.get(3)?,
+                    t_stored: r.get(6)?,
+                    alive: match (same_host, pid) {
+                        (true, Some(pid)) => Some(pid_alive(pid)),
+                        (_, None) => Some(false),
+                        (false, Some(_)) => None,
+                    },
+                })
+            })
+            .map_err(&err)?;
+        rows.collect::<rusqlite::Result<_>>().map_err(err)
     }
 
     /// Case counts per sweep (all sweeps, or the one named).

@@ -17,7 +17,7 @@ use std::time::Duration;
 
 use rusqlite::{params, Connection, OptionalExtension, TransactionBehavior};
 
-pub use cases::{CaseRecord, Claim, SweepCounts};
+pub use cases::{CaseRecord, Claim, RunningCase, SweepCounts};
 pub use table::{Format, Table};
 
 /// How long a connection waits for another writer before giving up: a finished case's transaction takes

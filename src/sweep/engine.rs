@@ -236,7 +236,7 @@ fn run_one(
     ctx: &CaseContext<'_>,
 ) -> Result<Option<(String, bool)>, StoreError> {
     let mut store = Store::open(&ctx.opts.db)?;
-    let resume_path = ctx.snapshot_dir.join(format!("{}.resume.json", case.id));
+    let resume_path = resume_path(&ctx.opts.db, &case.id);
     let saved = ResumeFile::load(&resume_path, &case.id);
     let Some(claim) = store.claim(&case.id, saved.as_ref().map(|r| (r.step, r.rows)))? else {
         return Ok(None);
@@ -358,7 +358,7 @@ struct Recorder<'a> {
     snapshots: Option<SnapshotWriter>,
     snapshot_error: Option<String>,
     bar: Option<CaseProgress>,
-    /// Where the solver state goes (`<snapshot dir>/<hash>.resume.json`).
+    /// Where the solver state goes ([`resume_path`]).
     resume_path: PathBuf,
     state_every: Duration,
     last_state: Instant,
@@ -537,6 +537,35 @@ impl CaseObserver for Recorder<'_> {
     fn resume_state(&mut self) -> Option<String> {
         self.resume_state.take()
     }
+}
+
+/// Where the saved state of case `hash` of database `db` lives: `<db dir>/<db stem>/<hash>.resume.json`
+/// (beside the snapshots when the sweep is named like its database, the default), whichever sweep
+/// invocation runs the case.
+pub fn resume_path(db: &std::path::Path, hash: &str) -> PathBuf {
+    let stem = db
+        .file_stem()
+        .map_or_else(|| "results".into(), |s| s.to_string_lossy().into_owned());
+    db.parent()
+        .unwrap_or_else(|| std::path::Path::new("."))
+        .join(stem)
+        .join(format!("{hash}.resume.json"))
+}
+
+/// The step, time and writing build of the saved state of a case, if it has a readable one.
+pub fn saved_state(db: &std::path::Path, hash: &str) -> Option<(u64, f64, String)> {
+    #[derive(serde::Deserialize)]
+    struct Header {
+        format: u32,
+        code_version: String,
+        step: u64,
+        t: f64,
+    }
+    let text = std::fs::read_to_string(resume_path(db, hash)).ok()?;
+    serde_json::from_str::<Header>(&text)
+        .ok()
+        .filter(|h| h.format == RESUME_FORMAT)
+        .map(|h| (h.step, h.t, h.code_version))
 }
 
 /// Layout version of the resume file.
