@@ -17,6 +17,7 @@ mod validate;
 
 pub use case::{
     CaseSpec, Fluid, Geometry, HistoryRemap, Layout, Model, Numerics, Output, Particles, Stop,
+    StressCoupling,
 };
 pub use error::{ConfigError, SpecError};
 pub use sweep_file::{Axis, SweepSpec};

@@ -3,7 +3,7 @@
 
 use serde_json::Value;
 
-use super::case::{CaseSpec, Geometry, Layout, Model};
+use super::case::{CaseSpec, Geometry, Layout, Model, StressCoupling};
 use super::error::{json_path_at_line, SpecError};
 use crate::geometry::layout;
 
@@ -169,6 +169,17 @@ impl CaseSpec {
                 "numerics.grid_deformation",
                 "the grid deformation method (thesis 3.3.4) is not implemented; remove the field \
                  (or use numerics.grading to refine the centre of the channel)",
+            ));
+        }
+        let explicit = matches!(
+            n.coupling,
+            StressCoupling::Explicit | StressCoupling::ExplicitCoupledG
+        );
+        if explicit && self.fluid.beta == 0.0 && self.fluid.wi > 0.0 {
+            return Err(SpecError::new(
+                "numerics.coupling",
+                "the explicit stress coupling needs a solvent viscosity (β > 0): with β = 0 the \
+                 flow matrix has no viscous term; use \"semi_implicit\" or \"auto\"",
             ));
         }
         positive("numerics.dt", n.dt)?;

@@ -228,15 +228,18 @@ mod tests {
         // Changing any parameter changes the id.
         let c = expand(&parse(&SWEEP.replace("ly = 0.1", "ly = 0.11"))).unwrap();
         assert_ne!(a[0].id, c[0].id);
-        // The history remap: the default spelled out keeps the id (it is not serialized, so the
-        // field's addition kept all ids), the other choice is another case.
-        let with = |remap: &str| {
-            let text = SWEEP.replace("dt = 0.01", &format!("remap = \"{remap}\", dt = 0.01"));
+        // Numerical choices with a default: the default spelled out keeps the id, another choice
+        // is another case. The remap is always serialized (its default changed: cases that named
+        // `biquadratic` kept their ids), the coupling only when not `auto`.
+        let with = |field: &str| {
+            let text = SWEEP.replace("dt = 0.01", &format!("{field}, dt = 0.01"));
             assert_ne!(text, SWEEP, "the sweep has a numerics table with dt = 0.01");
             expand(&parse(&text)).unwrap()
         };
-        assert_eq!(with("bilinear")[0].id, a[0].id);
-        assert_ne!(with("biquadratic")[0].id, a[0].id);
+        assert_eq!(with("remap = \"biquadratic\"")[0].id, a[0].id);
+        assert_ne!(with("remap = \"bilinear\"")[0].id, a[0].id);
+        assert_eq!(with("coupling = \"auto\"")[0].id, a[0].id);
+        assert_ne!(with("coupling = \"semi_implicit\"")[0].id, a[0].id);
         // Pinned value: the hash of the canonical JSON must never change between versions, or resume breaks.
         assert_eq!(format!("{:016x}", fnv1a64(b"a")), "af63dc4c8601ec8c");
     }

@@ -3,11 +3,12 @@
 //!
 //! Supported: confined shear flow and the circular Couette cell with free particles. Wi = 0 in
 //! confined shear is quasi-static Stokes motion ([`crate::solver::motion`]); Wi > 0 (and every
-//! Couette case) runs the viscoelastic moving-particle step of [`crate::solver::moving`] (explicit
-//! coupling with LBLᵀ when β > 0, the semi-implicit stress of thesis Eq. 5.51 for β = 0). The
+//! Couette case) runs the viscoelastic moving-particle step of [`crate::solver::moving`] with the
+//! stress coupling of `numerics.coupling` (default: explicit with LBLᵀ when β > 0, the
+//! semi-implicit stress of thesis Eq. 5.51 for β = 0). The
 //! cylinder-channel benchmark is run by `xpflow validate cylinder`, not as a sweep case.
 
-use crate::config::{CaseSpec, Geometry, HistoryRemap};
+use crate::config::{CaseSpec, Geometry, HistoryRemap, StressCoupling};
 use crate::fem::element::{q1, Q2_NODES};
 use crate::mesh::{Axis, Mesh};
 use crate::observe::{CaseObserver, Control, FieldSnapshot, NodalField, ParticleState, Sample};
@@ -247,9 +248,15 @@ fn run_moving<D: Domain>(
             t_end,
         )
     };
-    if eta_s == 0.0 {
+    match case.numerics.coupling {
         // without solvent viscosity the explicit stress has no viscous term (thesis §5.3.2)
-        params.coupling = Coupling::SemiImplicit;
+        StressCoupling::Auto if eta_s == 0.0 => params.coupling = Coupling::SemiImplicit,
+        StressCoupling::Auto | StressCoupling::Explicit => params.coupling = Coupling::Explicit,
+        StressCoupling::ExplicitCoupledG => {
+            params.coupling = Coupling::Explicit;
+            params.coupled_g = true;
+        }
+        StressCoupling::SemiImplicit => params.coupling = Coupling::SemiImplicit,
     }
     let x0 = case.initial_positions();
     let Some(a) = case.radius() else {
