@@ -176,6 +176,17 @@ pub struct Numerics {
     /// case when default (case ids unchanged).
     #[serde(default, skip_serializing_if = "StressCoupling::is_auto")]
     pub coupling: StressCoupling,
+    /// Confined shear only: solve in a frame translating along x at this velocity, e.g. that of a
+    /// particle near a wall, so that the particle and its stress field move little over the fixed
+    /// mesh (inertialless flow in a periodic channel is Galilean invariant: the same physics with
+    /// walls at −U_f ± U_w/2). Samples and snapshots are reported in the lab frame. Default 0; not
+    /// in the case id when 0.
+    #[serde(default, skip_serializing_if = "is_zero")]
+    pub frame_velocity: f64,
+}
+
+fn is_zero(v: &f64) -> bool {
+    *v == 0.0
 }
 
 /// How the polymer stress enters the flow solve of a time step (docs/validation.md, "Time order of

@@ -182,6 +182,24 @@ impl CaseSpec {
                  flow matrix has no viscous term; use \"semi_implicit\" or \"auto\"",
             ));
         }
+        if !n.frame_velocity.is_finite() {
+            return Err(SpecError::new(
+                "numerics.frame_velocity",
+                "must be a finite velocity",
+            ));
+        }
+        if n.frame_velocity != 0.0 && !matches!(self.geometry, Geometry::ConfinedShear { .. }) {
+            return Err(SpecError::new(
+                "numerics.frame_velocity",
+                "a translating frame applies to the periodic channel (confined_shear) only",
+            ));
+        }
+        if n.frame_velocity != 0.0 && self.fluid.wi == 0.0 {
+            return Err(SpecError::new(
+                "numerics.frame_velocity",
+                "the quasi-static Stokes runner (Wi = 0) has no translating frame; remove the field",
+            ));
+        }
         positive("numerics.dt", n.dt)?;
         positive("numerics.t_end", n.t_end)?;
         if n.t_end < n.dt {

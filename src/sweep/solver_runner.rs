@@ -55,16 +55,17 @@ impl SolverRunner {
     }
 }
 
-/// Observer sample from the solver state (ω and θ clockwise positive, as the store expects).
-fn sample(step: u64, t: f64, s: &RigidState) -> Sample {
+/// Observer sample from the solver state (ω and θ clockwise positive, as the store expects), in
+/// the lab frame: the solver's frame translates along x at `frame` (`numerics.frame_velocity`).
+fn sample(step: u64, t: f64, s: &RigidState, frame: f64) -> Sample {
     Sample {
         step,
         t,
         particles: (0..s.x.len())
             .map(|i| ParticleState {
-                x: s.x[i][0],
+                x: s.x[i][0] + frame * t,
                 y: s.x[i][1],
-                u: s.u[i][0],
+                u: s.u[i][0] + frame,
                 v: s.u[i][1],
                 omega: -s.omega[i],
                 theta: -s.theta[i],
@@ -132,6 +133,18 @@ fn snapshot(step: u64, t: f64, mesh: &Mesh, f: &FlowFields, period: Option<f64>)
     }
 }
 
+/// A snapshot of the solver's frame (translating along x at `frame`) moved into the lab frame:
+/// node x + U_f t, velocity u + U_f.
+fn in_lab(mut snap: FieldSnapshot, frame: f64) -> FieldSnapshot {
+    if frame != 0.0 {
+        snap.coords.iter_mut().for_each(|c| c[0] += frame * snap.t);
+        if let Some(u) = snap.fields.iter_mut().find(|f| f.name == "u") {
+            u.values.iter_mut().step_by(2).for_each(|v| *v += frame);
+        }
+    }
+    snap
+}
+
 impl CaseRunner for SolverRunner {
     fn supports(&self, case: &CaseSpec) -> Result<(), String> {
         match case.geometry {
@@ -159,11 +172,12 @@ impl CaseRunner for SolverRunner {
                     Axis::centred(-0.5 * h, 0.5 * h, ny, case.numerics.grading),
                     true,
                 );
+                // a frame translating at U_f: walls at −U_f ± U_w/2
                 let domain = ShearDomain {
                     h,
                     l,
                     wall_speed,
-                    drift: 0.0,
+                    drift: -case.numerics.frame_velocity,
                 };
                 return run_moving(case, mesh, domain, obs);
             }
@@ -200,7 +214,7 @@ impl CaseRunner for SolverRunner {
             if obs.snapshot_due(step) {
                 obs.on_snapshot(&snapshot(step, t, mesh, fields, Some(setup.l)));
             }
-            let keep = obs.on_step(&sample(step, t, state)) == Control::Continue;
+            let keep = obs.on_step(&sample(step, t, state, 0.0)) == Control::Continue;
             if step % 50 == 0 {
                 obs.checkpoint();
             }
@@ -267,6 +281,7 @@ fn run_moving<D: Domain>(
         interface: InterfaceApprox::Linear,
     };
     let period = domain.period();
+    let frame = case.numerics.frame_velocity;
     let mut sim = match MovingParticles::free(mesh, params, domain, x0, a, cut) {
         Ok(s) => s,
         Err(e) => {
@@ -310,9 +325,12 @@ fn run_moving<D: Domain>(
         }
     } else {
         if obs.snapshot_due(0) {
-            obs.on_snapshot(&snapshot(0, 0.0, sim.flow().mesh(), &fields(&sim), period));
+            obs.on_snapshot(&in_lab(
+                snapshot(0, 0.0, sim.flow().mesh(), &fields(&sim), period),
+                frame,
+            ));
         }
-        if obs.on_step(&sample(0, 0.0, sim.state())) != Control::Continue {
+        if obs.on_step(&sample(0, 0.0, sim.state(), frame)) != Control::Continue {
             return CaseResult {
                 status: RunStatus::Finished,
                 steps: 0,
@@ -327,9 +345,12 @@ fn run_moving<D: Domain>(
         last_step = step;
         last_t = t;
         if obs.snapshot_due(step) {
-            obs.on_snapshot(&snapshot(step, t, sim.flow().mesh(), &fields(sim), period));
+            obs.on_snapshot(&in_lab(
+                snapshot(step, t, sim.flow().mesh(), &fields(sim), period),
+                frame,
+            ));
         }
-        let keep = obs.on_step(&sample(step, t, sim.state())) == Control::Continue;
+        let keep = obs.on_step(&sample(step, t, sim.state(), frame)) == Control::Continue;
         if keep && obs.state_due(step) {
             // (serializing plain numbers cannot fail)
             if let Ok(state) = serde_json::to_string(&sim.checkpoint()) {
