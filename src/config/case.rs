@@ -183,6 +183,12 @@ pub struct Numerics {
     /// in the case id when 0.
     #[serde(default, skip_serializing_if = "is_zero")]
     pub frame_velocity: f64,
+    /// Couette only: solve in a frame rotating counter-clockwise at Ω about the axis (walls at
+    /// ω̄ − Ω and −Ω), e.g. Ω = u_θ(r0)/r0, the undisturbed orbit of the particle, so that it
+    /// stays nearly at rest on the mesh (inertialless flow of an objective fluid is the same in a
+    /// rigidly rotating frame). Reported in the lab frame. Default 0; not in the case id when 0.
+    #[serde(default, skip_serializing_if = "is_zero")]
+    pub frame_rotation: f64,
 }
 
 fn is_zero(v: &f64) -> bool {

@@ -194,6 +194,18 @@ impl CaseSpec {
                 "a translating frame applies to the periodic channel (confined_shear) only",
             ));
         }
+        if !n.frame_rotation.is_finite() {
+            return Err(SpecError::new(
+                "numerics.frame_rotation",
+                "must be a finite angular velocity",
+            ));
+        }
+        if n.frame_rotation != 0.0 && !matches!(self.geometry, Geometry::Couette { .. }) {
+            return Err(SpecError::new(
+                "numerics.frame_rotation",
+                "a rotating frame applies to the Couette cell only",
+            ));
+        }
         if n.frame_velocity != 0.0 && self.fluid.wi == 0.0 {
             return Err(SpecError::new(
                 "numerics.frame_velocity",

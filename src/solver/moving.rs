@@ -106,6 +106,45 @@ impl Domain for CouetteGeometry {
     }
 }
 
+/// The Couette cell seen from a frame rotating counter-clockwise at Ω about the axis: inner wall
+/// at ω̄ − Ω, outer wall at −Ω. Inertialless flow with an objective constitutive model is the
+/// same in a rigidly rotating frame, so a frame turning with a particle's orbit keeps the particle
+/// nearly at rest on the (rotationally symmetric) mesh; velocities are relative to the frame
+/// (ω_lab = ω + Ω).
+#[derive(Debug, Clone, Copy)]
+pub struct RotatingCouette {
+    /// The cell.
+    pub geometry: CouetteGeometry,
+    /// Frame angular velocity Ω (counter-clockwise positive).
+    pub frame: f64,
+}
+
+impl Domain for RotatingCouette {
+    fn period(&self) -> Option<f64> {
+        None
+    }
+
+    fn apply_walls(&self, flow: &mut ViscoelasticFlow) {
+        let (g, frame) = (self.geometry, self.frame);
+        // the lab wall velocity minus the frame's rigid rotation Ω × x
+        let relative = move |side: Side, x: [f64; 2]| {
+            let w = g.wall_velocity(side, x);
+            [w[0] + frame * x[1], w[1] - frame * x[0]]
+        };
+        flow.set_velocity(Side::Bottom, move |x| relative(Side::Bottom, x));
+        flow.set_velocity(Side::Top, move |x| relative(Side::Top, x));
+        flow.pin_pressure();
+    }
+
+    fn contact(&self, x: &[[f64; 2]], radius: &[f64], min_gap: f64) -> Option<Contact> {
+        self.geometry.contact(x, radius, min_gap)
+    }
+
+    fn shear_rate(&self) -> f64 {
+        CouetteGeometry::shear_rate(&self.geometry)
+    }
+}
+
 /// Why a run stopped.
 #[derive(Debug, Clone, PartialEq)]
 pub enum MovingEnd {

@@ -18,7 +18,9 @@ use crate::solver::constitutive_stress::Coupling;
 use crate::solver::couette::CouetteGeometry;
 use crate::solver::cutcells::level_set;
 use crate::solver::motion::{FlowFields, MotionEnd, ShearCase};
-use crate::solver::moving::{Domain, MovingCheckpoint, MovingEnd, MovingParticles, ShearDomain};
+use crate::solver::moving::{
+    Domain, MovingCheckpoint, MovingEnd, MovingParticles, RotatingCouette, ShearDomain,
+};
 use crate::solver::rigid::{Motion, Particle};
 use crate::solver::viscoelastic::ViscoelasticParams;
 use crate::sweep::runner::{CaseResult, CaseRunner, RunStatus};
@@ -55,20 +57,59 @@ impl SolverRunner {
     }
 }
 
-/// Observer sample from the solver state (ω and θ clockwise positive, as the store expects), in
-/// the lab frame: the solver's frame translates along x at `frame` (`numerics.frame_velocity`).
-fn sample(step: u64, t: f64, s: &RigidState, frame: f64) -> Sample {
+/// The frame the solver works in, relative to the lab (`numerics.frame_velocity`,
+/// `numerics.frame_rotation`).
+#[derive(Debug, Clone, Copy, PartialEq)]
+enum Frame {
+    /// Translating along x at this velocity.
+    Translating(f64),
+    /// Rotating counter-clockwise about the origin at this angular velocity.
+    Rotating(f64),
+}
+
+impl Frame {
+    const LAB: Frame = Frame::Translating(0.0);
+
+    /// A position and a velocity of the solver's frame at time t in the lab frame.
+    fn to_lab(self, t: f64, x: [f64; 2], u: [f64; 2]) -> ([f64; 2], [f64; 2]) {
+        match self {
+            Frame::Translating(v) => ([x[0] + v * t, x[1]], [u[0] + v, u[1]]),
+            Frame::Rotating(w) => {
+                let (s, c) = (w * t).sin_cos();
+                let rot = |p: [f64; 2]| [c * p[0] - s * p[1], s * p[0] + c * p[1]];
+                let (xl, ul) = (rot(x), rot(u));
+                // plus the frame's rigid rotation Ω × x
+                (xl, [ul[0] - w * xl[1], ul[1] + w * xl[0]])
+            }
+        }
+    }
+
+    /// The frame's angular velocity (counter-clockwise).
+    fn spin(self) -> f64 {
+        match self {
+            Frame::Translating(_) => 0.0,
+            Frame::Rotating(w) => w,
+        }
+    }
+}
+
+/// Observer sample from the solver state in the lab frame (ω and θ clockwise positive, as the
+/// store expects).
+fn sample(step: u64, t: f64, s: &RigidState, frame: Frame) -> Sample {
     Sample {
         step,
         t,
         particles: (0..s.x.len())
-            .map(|i| ParticleState {
-                x: s.x[i][0] + frame * t,
-                y: s.x[i][1],
-                u: s.u[i][0] + frame,
-                v: s.u[i][1],
-                omega: -s.omega[i],
-                theta: -s.theta[i],
+            .map(|i| {
+                let (x, u) = frame.to_lab(t, s.x[i], s.u[i]);
+                ParticleState {
+                    x: x[0],
+                    y: x[1],
+                    u: u[0],
+                    v: u[1],
+                    omega: -(s.omega[i] + frame.spin()),
+                    theta: -(s.theta[i] + frame.spin() * t),
+                }
             })
             .collect(),
     }
@@ -133,13 +174,21 @@ fn snapshot(step: u64, t: f64, mesh: &Mesh, f: &FlowFields, period: Option<f64>)
     }
 }
 
-/// A snapshot of the solver's frame (translating along x at `frame`) moved into the lab frame:
-/// node x + U_f t, velocity u + U_f.
-fn in_lab(mut snap: FieldSnapshot, frame: f64) -> FieldSnapshot {
-    if frame != 0.0 {
-        snap.coords.iter_mut().for_each(|c| c[0] += frame * snap.t);
-        if let Some(u) = snap.fields.iter_mut().find(|f| f.name == "u") {
-            u.values.iter_mut().step_by(2).for_each(|v| *v += frame);
+/// A snapshot of the solver's frame moved into the lab frame (node positions and velocity).
+fn in_lab(mut snap: FieldSnapshot, frame: Frame) -> FieldSnapshot {
+    if frame == Frame::LAB {
+        return snap;
+    }
+    let t = snap.t;
+    let u = snap.fields.iter_mut().find(|f| f.name == "u");
+    let mut u = u.map(|f| &mut f.values);
+    for (k, c) in snap.coords.iter_mut().enumerate() {
+        let uk = u.as_ref().map_or([0.0; 2], |u| [u[2 * k], u[2 * k + 1]]);
+        let (x, ul) = frame.to_lab(t, *c, uk);
+        *c = x;
+        if let Some(u) = u.as_mut() {
+            u[2 * k] = ul[0];
+            u[2 * k + 1] = ul[1];
         }
     }
     snap
@@ -194,6 +243,13 @@ impl CaseRunner for SolverRunner {
                 let [n_r, n_theta] = case.numerics.mesh;
                 let mesh =
                     Mesh::annulus(n_theta, Axis::centred(r1, r2, n_r, case.numerics.grading));
+                if case.numerics.frame_rotation != 0.0 {
+                    let domain = RotatingCouette {
+                        geometry: g,
+                        frame: case.numerics.frame_rotation,
+                    };
+                    return run_moving(case, mesh, domain, obs);
+                }
                 return run_moving(case, mesh, g, obs);
             }
             _ => {}
@@ -214,7 +270,7 @@ impl CaseRunner for SolverRunner {
             if obs.snapshot_due(step) {
                 obs.on_snapshot(&snapshot(step, t, mesh, fields, Some(setup.l)));
             }
-            let keep = obs.on_step(&sample(step, t, state, 0.0)) == Control::Continue;
+            let keep = obs.on_step(&sample(step, t, state, Frame::LAB)) == Control::Continue;
             if step % 50 == 0 {
                 obs.checkpoint();
             }
@@ -281,7 +337,11 @@ fn run_moving<D: Domain>(
         interface: InterfaceApprox::Linear,
     };
     let period = domain.period();
-    let frame = case.numerics.frame_velocity;
+    let frame = if case.numerics.frame_rotation != 0.0 {
+        Frame::Rotating(case.numerics.frame_rotation)
+    } else {
+        Frame::Translating(case.numerics.frame_velocity)
+    };
     let mut sim = match MovingParticles::free(mesh, params, domain, x0, a, cut) {
         Ok(s) => s,
         Err(e) => {
