@@ -68,7 +68,7 @@ fn example_sweeps_pass_dry_run() {
 #[test]
 fn invalid_sweeps_exit_2_and_write_nothing() {
     let dir = scratch("invalid");
-    let bad: [(&str, String, &str); 12] = [
+    let bad: [(&str, String, &str); 15] = [
         (
             "malformed",
             GOOD.replace("name = \"cli\"", "name = = 1"),
@@ -124,6 +124,22 @@ fn invalid_sweeps_exit_2_and_write_nothing() {
             "axis path",
             GOOD.replace("fluid.wi = [1, 2]", "fluid.wii = [1, 2]"),
             "fluid.wii",
+        ),
+        (
+            "explicit coupling without solvent",
+            GOOD.replace("beta = 0.1", "beta = 0.0")
+                .replace("dt = 0.01", "dt = 0.01, coupling = \"explicit\""),
+            "numerics.coupling",
+        ),
+        (
+            "rotating channel",
+            GOOD.replace("dt = 0.01", "dt = 0.01, frame_rotation = 0.1"),
+            "numerics.frame_rotation",
+        ),
+        (
+            "unknown coupling",
+            GOOD.replace("dt = 0.01", "dt = 0.01, coupling = \"implicit\""),
+            "numerics.coupling",
         ),
     ];
     for (what, text, field) in bad {

@@ -182,29 +182,28 @@ impl CaseSpec {
                  flow matrix has no viscous term; use \"semi_implicit\" or \"auto\"",
             ));
         }
-        if !n.frame_velocity.is_finite() {
-            return Err(SpecError::new(
+        let confined = matches!(self.geometry, Geometry::ConfinedShear { .. });
+        let couette = matches!(self.geometry, Geometry::Couette { .. });
+        for (field, v, fits, only) in [
+            (
                 "numerics.frame_velocity",
-                "must be a finite velocity",
-            ));
-        }
-        if n.frame_velocity != 0.0 && !matches!(self.geometry, Geometry::ConfinedShear { .. }) {
-            return Err(SpecError::new(
-                "numerics.frame_velocity",
+                n.frame_velocity,
+                confined,
                 "a translating frame applies to the periodic channel (confined_shear) only",
-            ));
-        }
-        if !n.frame_rotation.is_finite() {
-            return Err(SpecError::new(
+            ),
+            (
                 "numerics.frame_rotation",
-                "must be a finite angular velocity",
-            ));
-        }
-        if n.frame_rotation != 0.0 && !matches!(self.geometry, Geometry::Couette { .. }) {
-            return Err(SpecError::new(
-                "numerics.frame_rotation",
+                n.frame_rotation,
+                couette,
                 "a rotating frame applies to the Couette cell only",
-            ));
+            ),
+        ] {
+            if !v.is_finite() {
+                return Err(SpecError::new(field, "must be finite"));
+            }
+            if v != 0.0 && !fits {
+                return Err(SpecError::new(field, only));
+            }
         }
         if n.frame_velocity != 0.0 && self.fluid.wi == 0.0 {
             return Err(SpecError::new(
