@@ -189,6 +189,30 @@ pub struct Numerics {
     /// rigidly rotating frame). Reported in the lab frame. Default 0; not in the case id when 0.
     #[serde(default, skip_serializing_if = "is_zero")]
     pub frame_rotation: f64,
+    /// `lab` (default) or `particle`: a frame moving with the undisturbed flow at the first
+    /// particle's initial position (confined shear: U_f = U_w y0/H; Couette: Ω = u_θ(r0)/r0),
+    /// i.e. the `frame_velocity` / `frame_rotation` that keeps that particle nearly at rest on
+    /// the mesh, computed per case. Not in the case id when `lab`.
+    #[serde(default, skip_serializing_if = "FrameChoice::is_lab")]
+    pub frame: FrameChoice,
+}
+
+/// The frame a case is solved in (see [`Numerics::frame`]).
+#[derive(Debug, Clone, Copy, Default, PartialEq, Eq, Serialize, Deserialize)]
+#[serde(rename_all = "snake_case")]
+pub enum FrameChoice {
+    /// The lab frame, or the frame given by `frame_velocity` / `frame_rotation`.
+    #[default]
+    Lab,
+    /// Moving with the undisturbed flow at the first particle's start.
+    Particle,
+}
+
+impl FrameChoice {
+    /// Whether this is the default (`lab`).
+    pub fn is_lab(&self) -> bool {
+        *self == FrameChoice::Lab
+    }
 }
 
 fn is_zero(v: &f64) -> bool {
@@ -319,6 +343,34 @@ impl CaseSpec {
                 // Validation rejects a Couette layout in another geometry; place it at the origin meanwhile.
                 _ => vec![[0.0, 0.0]],
             },
+        }
+    }
+
+    /// The frame the solver works in: (translation velocity along x, rotation rate about the
+    /// origin), from `numerics.frame` or the explicit `frame_velocity` / `frame_rotation`.
+    pub fn solver_frame(&self) -> (f64, f64) {
+        let n = &self.numerics;
+        if n.frame == FrameChoice::Lab {
+            return (n.frame_velocity, n.frame_rotation);
+        }
+        let Some(&x0) = self.initial_positions().first() else {
+            return (0.0, 0.0);
+        };
+        match self.geometry {
+            // walls at ±U_w/2: the undisturbed u = U_w y/H
+            Geometry::ConfinedShear { h, wall_speed, .. } => (wall_speed * x0[1] / h, 0.0),
+            // u_θ = A r + B/r with A = −ω̄R1²/(R2² − R1²), B = ω̄R1²R2²/(R2² − R1²): Ω = A + B/r²
+            Geometry::Couette {
+                r1,
+                r2,
+                omega_inner,
+            } => {
+                let d = r2 * r2 - r1 * r1;
+                let r_sq = x0[0] * x0[0] + x0[1] * x0[1];
+                let omega = omega_inner * r1 * r1 / d * (r2 * r2 / r_sq - 1.0);
+                (0.0, omega)
+            }
+            Geometry::CylinderChannel { .. } => (0.0, 0.0),
         }
     }
 

@@ -16,8 +16,8 @@ mod sweep_file;
 mod validate;
 
 pub use case::{
-    CaseSpec, Fluid, Geometry, HistoryRemap, Layout, Model, Numerics, Output, Particles, Stop,
-    StressCoupling,
+    CaseSpec, Fluid, FrameChoice, Geometry, HistoryRemap, Layout, Model, Numerics, Output,
+    Particles, Stop, StressCoupling,
 };
 pub use error::{ConfigError, SpecError};
 pub use sweep_file::{Axis, SweepSpec};

@@ -3,7 +3,7 @@
 
 use serde_json::Value;
 
-use super::case::{CaseSpec, Geometry, Layout, Model, StressCoupling};
+use super::case::{CaseSpec, FrameChoice, Geometry, Layout, Model, StressCoupling};
 use super::error::{json_path_at_line, SpecError};
 use crate::geometry::layout;
 
@@ -203,6 +203,26 @@ impl CaseSpec {
             }
             if v != 0.0 && !fits {
                 return Err(SpecError::new(field, only));
+            }
+        }
+        if n.frame == FrameChoice::Particle {
+            if n.frame_velocity != 0.0 || n.frame_rotation != 0.0 {
+                return Err(SpecError::new(
+                    "numerics.frame",
+                    "\"particle\" computes the frame itself: remove frame_velocity / frame_rotation",
+                ));
+            }
+            if matches!(self.geometry, Geometry::CylinderChannel { .. }) {
+                return Err(SpecError::new(
+                    "numerics.frame",
+                    "the cylinder channel has no particle to follow",
+                ));
+            }
+            if confined && self.fluid.wi == 0.0 {
+                return Err(SpecError::new(
+                    "numerics.frame",
+                    "the quasi-static Stokes runner (Wi = 0) has no moving frame; remove the field",
+                ));
             }
         }
         if n.frame_velocity != 0.0 && self.fluid.wi == 0.0 {

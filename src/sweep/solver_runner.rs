@@ -57,8 +57,7 @@ impl SolverRunner {
     }
 }
 
-/// The frame the solver works in, relative to the lab (`numerics.frame_velocity`,
-/// `numerics.frame_rotation`).
+/// The frame the solver works in, relative to the lab ([`CaseSpec::solver_frame`]).
 #[derive(Debug, Clone, Copy, PartialEq)]
 enum Frame {
     /// Translating along x at this velocity.
@@ -226,7 +225,7 @@ impl CaseRunner for SolverRunner {
                     h,
                     l,
                     wall_speed,
-                    drift: -case.numerics.frame_velocity,
+                    drift: -case.solver_frame().0,
                 };
                 return run_moving(case, mesh, domain, obs);
             }
@@ -243,10 +242,11 @@ impl CaseRunner for SolverRunner {
                 let [n_r, n_theta] = case.numerics.mesh;
                 let mesh =
                     Mesh::annulus(n_theta, Axis::centred(r1, r2, n_r, case.numerics.grading));
-                if case.numerics.frame_rotation != 0.0 {
+                let rotation = case.solver_frame().1;
+                if rotation != 0.0 {
                     let domain = RotatingCouette {
                         geometry: g,
-                        frame: case.numerics.frame_rotation,
+                        frame: rotation,
                     };
                     return run_moving(case, mesh, domain, obs);
                 }
@@ -337,10 +337,9 @@ fn run_moving<D: Domain>(
         interface: InterfaceApprox::Linear,
     };
     let period = domain.period();
-    let frame = if case.numerics.frame_rotation != 0.0 {
-        Frame::Rotating(case.numerics.frame_rotation)
-    } else {
-        Frame::Translating(case.numerics.frame_velocity)
+    let frame = match case.solver_frame() {
+        (_, rotation) if rotation != 0.0 => Frame::Rotating(rotation),
+        (velocity, _) => Frame::Translating(velocity),
     };
     let mut sim = match MovingParticles::free(mesh, params, domain, x0, a, cut) {
         Ok(s) => s,
