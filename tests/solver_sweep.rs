@@ -369,20 +369,12 @@ output = {{ sample_every = 1 }}
 "#
         )
     };
-    let (s0, n0, lab) = run_one("frame-lab", &case(""));
-    let (s1, n1, moving) = run_one("frame-moving", &case(", frame_velocity = 0.2"));
-    assert_eq!((s0.as_str(), s1.as_str()), ("done", "done"));
-    assert_eq!(n0, n1);
-    println!("lab {lab:?}\nmoving {moving:?}");
-    for k in 0..3 {
-        assert!(
-            (lab[k] - moving[k]).abs() < MOTION_TOL,
-            "{lab:?} vs {moving:?}"
-        );
-    }
-    assert!(
-        (lab[3] - moving[3]).abs() < OMEGA_TOL,
-        "{lab:?} vs {moving:?}"
+    let moving = frames_agree(
+        "frame",
+        case,
+        ", frame_velocity = 0.2",
+        MOTION_TOL,
+        OMEGA_TOL,
     );
     // the particle moved with the upper half of the channel in the lab frame
     assert!(moving[0] > 0.03 && moving[2] > 0.15, "{moving:?}");
@@ -411,13 +403,39 @@ output = {{ sample_every = 1 }}
 "#
         )
     };
-    let (s0, n0, lab) = run_one("rotating-lab", &case(""));
-    let (s1, n1, rot) = run_one("rotating-frame", &case(", frame_rotation = 0.104"));
+    frames_agree(
+        "rotating",
+        case,
+        ", frame_rotation = 0.104",
+        MOTION_TOL,
+        OMEGA_TOL,
+    );
+}
+
+/// Runs a one-case sweep in the lab frame and with the `frame` fields appended to its numerics,
+/// checks that the last samples agree (x, y, u within `motion_tol`, ω within `omega_tol`) and
+/// returns the moving frame's (x, y, u, ω).
+fn frames_agree(
+    name: &str,
+    case: impl Fn(&str) -> String,
+    frame: &str,
+    motion_tol: f64,
+    omega_tol: f64,
+) -> [f64; 4] {
+    let (s0, n0, lab) = run_one(&format!("{name}-lab"), &case(""));
+    let (s1, n1, moving) = run_one(&format!("{name}-moving"), &case(frame));
     assert_eq!((s0.as_str(), s1.as_str()), ("done", "done"));
     assert_eq!(n0, n1);
-    println!("lab {lab:?}\nrotating {rot:?}");
+    println!("lab {lab:?}\nmoving {moving:?}");
     for k in 0..3 {
-        assert!((lab[k] - rot[k]).abs() < MOTION_TOL, "{lab:?} vs {rot:?}");
+        assert!(
+            (lab[k] - moving[k]).abs() < motion_tol,
+            "{lab:?} vs {moving:?}"
+        );
     }
-    assert!((lab[3] - rot[3]).abs() < OMEGA_TOL, "{lab:?} vs {rot:?}");
+    assert!(
+        (lab[3] - moving[3]).abs() < omega_tol,
+        "{lab:?} vs {moving:?}"
+    );
+    moving
 }
