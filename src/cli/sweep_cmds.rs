@@ -243,6 +243,7 @@ pub fn run_status_to(args: &StatusArgs, out: &mut dyn Write) -> anyhow::Result<E
     } else {
         args.db.clone()
     };
+    let mut running = Vec::new();
     let mut t = Table {
         columns: [
             "database", "sweep", "cases", "done", "running", "failed", "pending",
@@ -256,6 +257,7 @@ pub fn run_status_to(args: &StatusArgs, out: &mut dyn Write) -> anyhow::Result<E
             return invalid(&format!("database {} does not exist", db.display()));
         }
         let store = Store::open(db)?;
+        running.extend(store.running_cases()?.into_iter().map(|c| (db, c)));
         for c in store.counts(None)? {
             t.rows.push(vec![
                 db.display().to_string().into(),
@@ -285,32 +287,30 @@ pub fn run_status_to(args: &StatusArgs, out: &mut dyn Write) -> anyhow::Result<E
         .to_vec(),
         rows: Vec::new(),
     };
-    for db in &dbs {
-        for c in Store::open(db)?.running_cases()? {
-            let saved = match crate::sweep::engine::saved_state(db, &c.hash) {
-                Some((step, t, _)) => format!("step {step}, t = {t:.2}"),
-                None => "none (restarts at t = 0)".into(),
-            };
-            let process = match c.alive {
-                Some(true) => "running",
-                Some(false) => "interrupted",
-                None => "other host",
-            };
-            r.rows.push(vec![
-                db.display().to_string().into(),
-                c.sweep.into(),
-                c.hash.into(),
-                c.label.into(),
-                process.to_string().into(),
-                c.t_stored
-                    .map_or_else(|| "-".to_string(), |t| format!("{t:.2}"))
-                    .into(),
-                c.t_end
-                    .map_or_else(|| "-".to_string(), |t| format!("{t}"))
-                    .into(),
-                saved.into(),
-            ]);
-        }
+    for (db, c) in running {
+        let saved = match crate::sweep::engine::saved_state(db, &c.hash) {
+            Some((step, t, _)) => format!("step {step}, t = {t:.2}"),
+            None => "none (restarts at t = 0)".into(),
+        };
+        let process = match c.alive {
+            Some(true) => "running",
+            Some(false) => "interrupted",
+            None => "other host",
+        };
+        r.rows.push(vec![
+            db.display().to_string().into(),
+            c.sweep.into(),
+            c.hash.into(),
+            c.label.into(),
+            process.to_string().into(),
+            c.t_stored
+                .map_or_else(|| "-".to_string(), |t| format!("{t:.2}"))
+                .into(),
+            c.t_end
+                .map_or_else(|| "-".to_string(), |t| format!("{t}"))
+                .into(),
+            saved.into(),
+        ]);
     }
     if !r.rows.is_empty() {
         writeln!(

@@ -91,10 +91,12 @@ impl Domain for CouetteGeometry {
     }
 
     fn apply_walls(&self, flow: &mut ViscoelasticFlow) {
-        let g = *self;
-        flow.set_velocity(Side::Bottom, move |x| g.wall_velocity(Side::Bottom, x));
-        flow.set_velocity(Side::Top, move |x| g.wall_velocity(Side::Top, x));
-        flow.pin_pressure();
+        // the lab frame is the rotating one at Ω = 0
+        RotatingCouette {
+            geometry: *self,
+            frame: 0.0,
+        }
+        .apply_walls(flow);
     }
 
     fn contact(&self, x: &[[f64; 2]], radius: &[f64], min_gap: f64) -> Option<Contact> {

@@ -72,6 +72,27 @@ pub struct RunningCase {
     pub alive: Option<bool>,
 }
 
+/// Sample rows of a case up to and including `step`.
+fn sample_rows(conn: &rusqlite::Connection, case_id: i64, step: u64) -> rusqlite::Result<u64> {
+    conn.query_row(
+        "SELECT COUNT(*) FROM samples WHERE case_id = ?1 AND step <= ?2",
+        params![case_id, step as i64],
+        |r| r.get::<_, i64>(0),
+    )
+    .map(|n| n as u64)
+}
+
+/// Whether the process that claimed a case (`owner` = `host:pid`, `pid`) is alive: `None` when it
+/// ran on another host (cannot tell), `Some(false)` without a pid.
+fn owner_alive(owner: Option<&str>, pid: Option<i64>, host: &str) -> Option<bool> {
+    let same_host = owner.is_some_and(|o| o.rsplit_once(':').is_some_and(|(h, _)| h == host));
+    match (same_host, pid) {
+        (true, Some(pid)) => Some(pid_alive(pid)),
+        (_, None) => Some(false),
+        (false, Some(_)) => None,
+    }
+}
+
 /// This process' owner tag for claimed cases: `host:pid`.
 fn owner() -> String {
     format!("{}:{}", hostname(), std::process::id())
@@ -217,16 +238,8 @@ impl Store {
         };
         let mut reset = 0;
         for (id, owner, pid) in running {
-            let same_host = owner
-                .as_deref()
-                .is_some_and(|o| o.rsplit_once(':').is_some_and(|(h, _)| h == host));
-            let dead = match (same_host, pid) {
-                (true, Some(pid)) => !pid_alive(pid),
-                (_, None) => true,
-                // Another host: cannot tell; leave it (documented in docs/sweeps.md).
-                (false, Some(_)) => false,
-            };
-            if dead {
+            // another host: cannot tell; leave it (documented in docs/sweeps.md)
+            if owner_alive(owner.as_deref(), pid, &host) == Some(false) {
                 reset += self
                     .conn
                     .execute(
@@ -284,14 +297,8 @@ impl Store {
         .map_err(&err)?;
         let keep = match resume {
             Some((step, rows)) => {
-                let have: i64 = tx
-                    .query_row(
-                        "SELECT COUNT(*) FROM samples WHERE case_id = ?1 AND step <= ?2",
-                        params![id, step as i64],
-                        |r| r.get(0),
-                    )
-                    .map_err(&err)?;
-                (have == rows as i64).then_some(step as i64)
+                let have = sample_rows(&tx, id, step).map_err(&err)?;
+                (have == rows).then_some(step as i64)
             }
             None => None,
         };
@@ -314,14 +321,7 @@ impl Store {
 
     /// Sample rows of a case up to and including `step`.
     pub fn count_samples(&self, case_id: i64, step: u64) -> Result<u64> {
-        self.conn
-            .query_row(
-                "SELECT COUNT(*) FROM samples WHERE case_id = ?1 AND step <= ?2",
-                params![case_id, step as i64],
-                |r| r.get::<_, i64>(0),
-            )
-            .map(|n| n as u64)
-            .map_err(self.sql_err())
+        sample_rows(&self.conn, case_id, step).map_err(self.sql_err())
     }
 
     /// Writes samples of a running case (checkpoint), in one transaction.
@@ -398,21 +398,13 @@ impl Store {
         let rows = st
             .query_map([], |r| {
                 let owner: Option<String> = r.get(4)?;
-                let pid: Option<i64> = r.get(5)?;
-                let same_host = owner
-                    .as_deref()
-                    .is_some_and(|o| o.rsplit_once(':').is_some_and(|(h, _)| h == host));
                 Ok(RunningCase {
                     sweep: r.get(0)?,
                     hash: r.get(1)?,
                     label: r.get(2)?,
                     t_end: r.get(3)?,
                     t_stored: r.get(6)?,
-                    alive: match (same_host, pid) {
-                        (true, Some(pid)) => Some(pid_alive(pid)),
-                        (_, None) => Some(false),
-                        (false, Some(_)) => None,
-                    },
+                    alive: owner_alive(owner.as_deref(), r.get(5)?, &host),
                 })
             })
             .map_err(&err)?;

@@ -249,7 +249,6 @@ fn run_one(
             case.label, case.id, r.step, r.t, r.code_version
         ));
     }
-    let started = Instant::now();
     let bar = ctx
         .progress
         .start_case(&case.label, &case.id, case.spec.numerics.t_end);
@@ -311,7 +310,7 @@ fn run_one(
         }
     }
     let bar = rec.bar.take();
-    let wall_before = rec.wall_before;
+    let wall_s = rec.wall_s();
     drop(rec);
     let summary = match (&outcome, &error) {
         (Some(o), Some(e)) if o.kind == OutcomeKind::Diverged => format!("diverged ({e})"),
@@ -327,7 +326,7 @@ fn run_one(
         samples,
         outcome,
         error,
-        wall_s: wall_before + started.elapsed().as_secs_f64(),
+        wall_s,
         steps,
         t_reached: t,
         run_id: ctx.run_id,
@@ -407,6 +406,11 @@ impl<'a> Recorder<'a> {
         }
     }
 
+    /// Wall-clock seconds spent on the case so far, over all attempts.
+    fn wall_s(&self) -> f64 {
+        self.wall_before + self.started.elapsed().as_secs_f64()
+    }
+
     /// Continues an interrupted attempt: the classifier, the last sample and the solver state as
     /// they were saved.
     fn resume_from(&mut self, r: ResumeFile) {
@@ -442,7 +446,7 @@ impl<'a> Recorder<'a> {
             stored_step: self.stored_step,
             last,
             classifier: self.classifier.clone(),
-            wall_s: self.wall_before + self.started.elapsed().as_secs_f64(),
+            wall_s: self.wall_s(),
             solver: serde_json::value::RawValue::from_string(state.to_string())
                 .map_err(|e| format!("solver state is not JSON: {e}"))?,
         };

@@ -69,6 +69,14 @@ enum Frame {
 impl Frame {
     const LAB: Frame = Frame::Translating(0.0);
 
+    /// The frame of a case ([`CaseSpec::solver_frame`]).
+    fn of(case: &CaseSpec) -> Frame {
+        match case.solver_frame() {
+            (_, rotation) if rotation != 0.0 => Frame::Rotating(rotation),
+            (velocity, _) => Frame::Translating(velocity),
+        }
+    }
+
     /// A position and a velocity of the solver's frame at time t in the lab frame.
     fn to_lab(self, t: f64, x: [f64; 2], u: [f64; 2]) -> ([f64; 2], [f64; 2]) {
         match self {
@@ -80,6 +88,14 @@ impl Frame {
                 // plus the frame's rigid rotation Ω × x
                 (xl, [ul[0] - w * xl[1], ul[1] + w * xl[0]])
             }
+        }
+    }
+
+    /// The frame's velocity along x.
+    fn velocity(self) -> f64 {
+        match self {
+            Frame::Translating(v) => v,
+            Frame::Rotating(_) => 0.0,
         }
     }
 
@@ -225,7 +241,7 @@ impl CaseRunner for SolverRunner {
                     h,
                     l,
                     wall_speed,
-                    drift: -case.solver_frame().0,
+                    drift: -Frame::of(case).velocity(),
                 };
                 return run_moving(case, mesh, domain, obs);
             }
@@ -242,15 +258,11 @@ impl CaseRunner for SolverRunner {
                 let [n_r, n_theta] = case.numerics.mesh;
                 let mesh =
                     Mesh::annulus(n_theta, Axis::centred(r1, r2, n_r, case.numerics.grading));
-                let rotation = case.solver_frame().1;
-                if rotation != 0.0 {
-                    let domain = RotatingCouette {
-                        geometry: g,
-                        frame: rotation,
-                    };
-                    return run_moving(case, mesh, domain, obs);
-                }
-                return run_moving(case, mesh, g, obs);
+                let domain = RotatingCouette {
+                    geometry: g,
+                    frame: Frame::of(case).spin(),
+                };
+                return run_moving(case, mesh, domain, obs);
             }
             _ => {}
         }
@@ -337,10 +349,7 @@ fn run_moving<D: Domain>(
         interface: InterfaceApprox::Linear,
     };
     let period = domain.period();
-    let frame = match case.solver_frame() {
-        (_, rotation) if rotation != 0.0 => Frame::Rotating(rotation),
-        (velocity, _) => Frame::Translating(velocity),
-    };
+    let frame = Frame::of(case);
     let mut sim = match MovingParticles::free(mesh, params, domain, x0, a, cut) {
         Ok(s) => s,
         Err(e) => {
