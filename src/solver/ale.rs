@@ -18,7 +18,7 @@ use crate::fem::element::{q1, q2_map, Q1_IN_Q2};
 use crate::fem::linsolve::{DirectSolver, SolveError, SolverKind};
 use crate::fem::sparse::{q1_pattern, SparseMatrix};
 use crate::mesh::{Mesh, Shape, Side};
-use crate::solver::viscoelastic::StencilWeights;
+use crate::solver::viscoelastic::{StencilWeights, STENCIL_LEN};
 
 /// Newton tolerance of the point location, in reference coordinates. Round-off limits ξ to about
 /// ε|x|/h (7e-14 for |x| = 2, h = 0.013): a tolerance of 1e-13 failed there (300×75 channel,
@@ -38,9 +38,11 @@ const LAPLACE_RESIDUAL_TOL: f64 = 1e-10;
 /// numerical diffusion of an upwind scheme: with bilinear weights and a rigid shift by a fraction
 /// ξ = |d|/h of an element per step, the error after a time T is ≈ ½|U|hT(1 − ξ)|s″|, whose
 /// Δt-dependent part −½U²TΔt|s″| is first order in Δt. A biquadratic 3×3 vertex stencil leaves
-/// ≈ (1 − ξ²)|U|h²T|s‴|/6, whose Δt-dependent part is O(Δt²). Measured on the translating
-/// cylinder (docs/validation.md) the choice did not change the time order, so the default is
-/// the thesis' bilinear map (monotone, 4 vertices instead of 9).
+/// ≈ (1 − ξ²)|U|h²T|s‴|/6, whose Δt-dependent part is O(Δt²); a bicubic 4×4 stencil one more
+/// power of h. Per remap the error is ∝ h^{p+1}, per unit time ∝ h^{p+1}/Δt when a particle
+/// crosses a sizeable fraction of an element per step: then a smaller Δt makes it worse
+/// (docs/validation.md, single particle §5.5). This type's default is the thesis' bilinear map
+/// (the validations name theirs); cases default to bicubic (`config::HistoryRemap`).
 #[derive(Debug, Clone, Copy, PartialEq, Eq, Default)]
 pub enum Remap {
     /// Bilinear on the element holding the pre-image (thesis §5.3.3).
@@ -49,6 +51,9 @@ pub enum Remap {
     /// Biquadratic Lagrange interpolation on the 3×3 vertices around the nearest vertex (in the
     /// structured mesh's index space; one-sided at walls). Not monotone.
     Quadratic,
+    /// Bicubic Lagrange interpolation on the 4×4 vertices around the element holding the
+    /// pre-image (index space; one-sided at walls). Not monotone; error O(h⁴) per remap.
+    Cubic,
 }
 
 /// A particle's move over one step.
@@ -324,10 +329,10 @@ impl TemporaryAle {
             self.previous.take()
         };
         let nn = mesh.n_nodes();
-        let mut at_n = vec![([0; 9], [0.0; 9]); mesh.n_vertices()];
+        let mut at_n = vec![([0; STENCIL_LEN], [0.0; STENCIL_LEN]); mesh.n_vertices()];
         let mut at_nm1 = d_old
             .as_ref()
-            .map(|_| vec![([0; 9], [0.0; 9]); mesh.n_vertices()]);
+            .map(|_| vec![([0; STENCIL_LEN], [0.0; STENCIL_LEN]); mesh.n_vertices()]);
         let mut mesh_velocity = vec![[0.0; 2]; nn];
         for k in 0..nn {
             let x = mesh.nodes[k];
@@ -367,8 +372,8 @@ impl TemporaryAle {
 /// configuration lies at most √2 h inside a particle (it belongs to a cut element); its
 /// pre-image keeps that position relative to the particle (rigid patch), so the element holding
 /// it has its vertices at most 2√2 h inside: two layers past the active ones, a third for
-/// stretched cells.
-pub const EXTENSION_LAYERS: usize = 3;
+/// stretched cells, a fourth for the bicubic stencil (one vertex further out).
+pub const EXTENSION_LAYERS: usize = 4;
 
 /// Gives the vertices that touch no fluid element (`known[v] == false`: inside a particle)
 /// values extrapolated from the fluid side, layer by layer, up to [`EXTENSION_LAYERS`] deep.
@@ -452,13 +457,26 @@ where
 
 /// Interpolation weights of a vertex field at reference point `xi` of element `e`.
 fn stencil(mesh: &Mesh, e: usize, xi: [f64; 2], remap: Remap) -> StencilWeights {
-    let mut out = ([0; 9], [0.0; 9]);
+    let mut out = ([0; STENCIL_LEN], [0.0; STENCIL_LEN]);
     match remap {
         Remap::Bilinear => {
             out.0[..4].copy_from_slice(&mesh.element_vertices[e]);
             out.1[..4].copy_from_slice(&q1(xi).0);
             // unused entries repeat a valid vertex with weight 0
             out.0[4..].fill(mesh.element_vertices[e][0]);
+        }
+        Remap::Cubic => {
+            let (nx, ny) = mesh.dims();
+            let (ex, ey) = (e % nx, e / nx);
+            let (ci, wi) = cubic_1d(ex, xi[0], nx, mesh.periodic);
+            let (cj, wj) = cubic_1d(ey, xi[1], ny, false);
+            for b in 0..4 {
+                for a in 0..4 {
+                    let k = 4 * b + a;
+                    out.0[k] = vertex_at(mesh, ci + a as isize - 1, (cj + b as isize - 1) as usize);
+                    out.1[k] = wi[a] * wj[b];
+                }
+            }
         }
         Remap::Quadratic => {
             let (nx, ny) = mesh.dims();
@@ -493,6 +511,27 @@ fn quadratic_1d(ex: usize, xi: f64, n: usize, periodic: bool) -> (isize, [f64; 3
             0.5 * eta * (eta - 1.0),
             1.0 - eta * eta,
             0.5 * eta * (eta + 1.0),
+        ],
+    )
+}
+
+/// Base vertex index and cubic Lagrange weights (at base − 1, base, base + 1, base + 2) of the
+/// point at reference coordinate `xi` of element `ex` along an axis of `n` elements; the stencil
+/// is shifted inward at the ends of a non-periodic axis.
+fn cubic_1d(ex: usize, xi: f64, n: usize, periodic: bool) -> (isize, [f64; 4]) {
+    let p = ex as f64 + 0.5 * (xi + 1.0);
+    let mut c = ex as isize;
+    if !periodic && n >= 3 {
+        c = c.clamp(1, n as isize - 2);
+    }
+    let t = p - c as f64;
+    (
+        c,
+        [
+            -t * (t - 1.0) * (t - 2.0) / 6.0,
+            (t + 1.0) * (t - 1.0) * (t - 2.0) / 2.0,
+            -(t + 1.0) * t * (t - 2.0) / 2.0,
+            (t + 1.0) * t * (t - 1.0) / 6.0,
         ],
     )
 }
@@ -716,7 +755,7 @@ mod tests {
             .map(|&k| mesh.nodes[k][0] * 3.0 + mesh.nodes[k][1])
             .collect();
         for (v, (vs, w)) in m.at_n.iter().enumerate() {
-            let g: f64 = (0..9).map(|a| f[vs[a]] * w[a]).sum();
+            let g: f64 = (0..STENCIL_LEN).map(|a| f[vs[a]] * w[a]).sum();
             assert!((g - f[v]).abs() < LOCATE_TOL);
         }
     }
@@ -782,7 +821,7 @@ mod tests {
             assert!((back[1] - x[1]).abs() < LOCATE_TOL);
             // a field linear in y is interpolated exactly by Q1
             let (vs, w) = m.at_n[v];
-            let g: f64 = (0..9).map(|a| fv[vs[a]] * w[a]).sum();
+            let g: f64 = (0..STENCIL_LEN).map(|a| fv[vs[a]] * w[a]).sum();
             assert!((g - f(xn)).abs() < LOCATE_TOL, "{g} {}", f(xn));
         }
     }
@@ -836,7 +875,43 @@ mod tests {
             }
             let (_, _, xn) = pre_image(&mesh, &m.displacement, x, Some(2.0)).unwrap();
             let (vs, w) = m.at_n[v];
-            let g: f64 = (0..9).map(|a| fv[vs[a]] * w[a]).sum();
+            let g: f64 = (0..STENCIL_LEN).map(|a| fv[vs[a]] * w[a]).sum();
+            // the walls (one-sided stencils) included
+            assert!((g - f(xn)).abs() < LOCATE_TOL, "{x:?}: {g} vs {}", f(xn));
+            checked += 1;
+        }
+        assert!(checked > 100);
+    }
+
+    #[test]
+    fn cubic_remap_is_exact_for_bicubic_fields() {
+        let mesh = channel();
+        let mut ale = TemporaryAle::new(&mesh);
+        ale.remap = Remap::Cubic;
+        let moves = one_move([0.0, 0.05], [0.013, -0.007]);
+        let m = ale.advance(&mesh, &moves, Some(2.0), 0.1, true).unwrap();
+        // bicubic in (x, y) (the channel mesh is uniform, so index space is affine); away from
+        // the periodic seam
+        let f = |p: [f64; 2]| {
+            let (x, y) = (p[0], p[1]);
+            0.3 + 2.0 * y - y * y + 0.9 * y * y * y + 0.7 * x * x - 0.5 * x * x * x + 0.4 * x * y
+                - 1.3 * x * x * y * y * y
+                + 0.8 * x * x * x * y * y * y
+        };
+        let fv: Vec<f64> = mesh
+            .node_of_vertex
+            .iter()
+            .map(|&k| f(mesh.nodes[k]))
+            .collect();
+        let mut checked = 0;
+        for (v, &k) in mesh.node_of_vertex.iter().enumerate() {
+            let x = mesh.nodes[k];
+            if x[0].abs() > 0.7 {
+                continue;
+            }
+            let (_, _, xn) = pre_image(&mesh, &m.displacement, x, Some(2.0)).unwrap();
+            let (vs, w) = m.at_n[v];
+            let g: f64 = (0..STENCIL_LEN).map(|a| fv[vs[a]] * w[a]).sum();
             // the walls (one-sided stencils) included
             assert!((g - f(xn)).abs() < LOCATE_TOL, "{x:?}: {g} vs {}", f(xn));
             checked += 1;

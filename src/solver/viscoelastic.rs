@@ -272,10 +272,13 @@ pub struct FlowState {
     pub body_force: f64,
 }
 
-/// Interpolation of a vertex field at a point: up to nine vertices and their weights (the four
-/// vertices of the element with bilinear weights, or a 3×3 vertex stencil with biquadratic ones;
-/// unused entries have weight 0).
-pub type StencilWeights = ([usize; 9], [f64; 9]);
+/// Most vertices one interpolation of the history uses (the 4×4 bicubic stencil).
+pub const STENCIL_LEN: usize = 16;
+
+/// Interpolation of a vertex field at a point: up to [`STENCIL_LEN`] vertices and their weights
+/// (the four vertices of the element with bilinear weights, a 3×3 vertex stencil with
+/// biquadratic ones, a 4×4 one with bicubic ones; unused entries have weight 0).
+pub type StencilWeights = ([usize; STENCIL_LEN], [f64; STENCIL_LEN]);
 
 /// How the history moves onto the current configuration (temporary ALE map, thesis §5.3.3):
 /// for every Q1 vertex x the interpolation at its pre-images xⁿ = Φₙ⁻¹(x) and
@@ -360,7 +363,7 @@ where
     at.iter()
         .map(|(v, w)| {
             let mut acc = field[v[0]] * w[0];
-            for k in 1..9 {
+            for k in 1..STENCIL_LEN {
                 if w[k] != 0.0 {
                     acc = acc + field[v[k]] * w[k];
                 }
@@ -1042,7 +1045,7 @@ mod tests {
     fn shift(n: usize, k: usize) -> Vec<StencilWeights> {
         (0..n)
             .map(|i| {
-                let mut w = ([i.saturating_sub(k); 9], [0.0; 9]);
+                let mut w = ([i.saturating_sub(k); STENCIL_LEN], [0.0; STENCIL_LEN]);
                 w.1[0] = 1.0;
                 w
             })

@@ -230,13 +230,14 @@ mod tests {
         assert_ne!(a[0].id, c[0].id);
         // Numerical choices with a default: the default spelled out keeps the id, another choice
         // is another case. The remap is always serialized (its default changed: cases that named
-        // `biquadratic` kept their ids), the coupling only when not `auto`.
+        // their remap kept their ids), the coupling only when not `auto`.
         let with = |field: &str| {
             let text = SWEEP.replace("dt = 0.01", &format!("{field}, dt = 0.01"));
             assert_ne!(text, SWEEP, "the sweep has a numerics table with dt = 0.01");
             expand(&parse(&text)).unwrap()
         };
-        assert_eq!(with("remap = \"biquadratic\"")[0].id, a[0].id);
+        assert_eq!(with("remap = \"bicubic\"")[0].id, a[0].id);
+        assert_ne!(with("remap = \"biquadratic\"")[0].id, a[0].id);
         assert_ne!(with("remap = \"bilinear\"")[0].id, a[0].id);
         assert_eq!(with("coupling = \"auto\"")[0].id, a[0].id);
         assert_ne!(with("coupling = \"semi_implicit\"")[0].id, a[0].id);

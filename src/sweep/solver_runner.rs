@@ -365,6 +365,7 @@ fn run_moving<D: Domain>(
     sim.set_remap(match case.numerics.remap {
         HistoryRemap::Bilinear => Remap::Bilinear,
         HistoryRemap::Biquadratic => Remap::Quadratic,
+        HistoryRemap::Bicubic => Remap::Cubic,
     });
     let fields = |sim: &MovingParticles<D>| FlowFields {
         u: sim.flow().velocity().to_vec(),
