@@ -919,6 +919,67 @@ mod tests {
         assert!(checked > 100);
     }
 
+    /// Repeated remaps of a smooth field under a uniform shift of a fraction θ of an element
+    /// per step (a particle's neighbourhood crossing the fixed mesh): the error accumulates
+    /// per remap like a semi-Lagrangian scheme's. Bound per step and mode sin(kx):
+    /// Lagrange interpolation error |Π(θ + j)|/(p + 1)! · (kh)^{p+1} for the p + 1 stencil
+    /// points j; the cubic remap must stay within N times its bound and beat the quadratic one.
+    #[test]
+    fn repeated_remaps_accumulate_the_interpolation_error_of_their_order() {
+        let (nx, l) = (40, 2.0);
+        let mesh = Mesh::rectangle(
+            Axis::uniform(-1.0, 1.0, nx),
+            Axis::uniform(-0.5, 0.5, 4),
+            true,
+        );
+        let h = l / nx as f64;
+        let theta = 0.66;
+        let d = vec![[theta * h, 0.0]; mesh.n_vertices()];
+        let k = 2.0 * std::f64::consts::PI / l * 2.0;
+        let exact = |x: f64, t: usize| (k * (x - t as f64 * theta * h)).sin();
+        let steps = 50;
+        let run = |remap: Remap| -> f64 {
+            let at: Vec<StencilWeights> = mesh
+                .node_of_vertex
+                .iter()
+                .map(|&n| {
+                    let (e, xi, _) = pre_image(&mesh, &d, mesh.nodes[n], Some(l)).unwrap();
+                    stencil(&mesh, e, xi, remap)
+                })
+                .collect();
+            let xs: Vec<f64> = mesh
+                .node_of_vertex
+                .iter()
+                .map(|&n| mesh.nodes[n][0])
+                .collect();
+            let mut f: Vec<f64> = xs.iter().map(|&x| exact(x, 0)).collect();
+            for _ in 0..steps {
+                f = at
+                    .iter()
+                    .map(|(v, w)| (0..STENCIL_LEN).map(|a| f[v[a]] * w[a]).sum())
+                    .collect();
+            }
+            xs.iter()
+                .zip(&f)
+                .map(|(&x, g)| (g - exact(x, steps)).abs())
+                .fold(0.0, f64::max)
+        };
+        let (quadratic, cubic) = (run(Remap::Quadratic), run(Remap::Cubic));
+        // the cubic stencil holds θ between its 2nd and 3rd points: nodes at θ + 1, θ, θ − 1, θ − 2
+        let node_product = |nodes: &[f64]| nodes.iter().map(|z| z.abs()).product::<f64>();
+        let cubic_bound =
+            steps as f64 * node_product(&[theta + 1.0, theta, theta - 1.0, theta - 2.0]) / 24.0
+                * (k * h).powi(4);
+        assert!(
+            cubic < cubic_bound,
+            "cubic {cubic:.3e} above its bound {cubic_bound:.3e}"
+        );
+        assert!(
+            cubic < quadratic / 3.0,
+            "cubic {cubic:.3e} not well below quadratic {quadratic:.3e}"
+        );
+    }
+
     #[test]
     fn mesh_velocity_of_a_steadily_moving_particle() {
         let mesh = channel();
