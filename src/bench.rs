@@ -218,6 +218,10 @@ pub fn moving(
         a,
         crate::xfem::CutOptions::default(),
     )?;
+    // the history interpolation cases use by default
+    sim.set_remap(crate::sweep::solver_runner::ale_remap(
+        crate::config::HistoryRemap::default(),
+    ));
     let mut reports = Vec::new();
     for k in 0..warm_up + steps {
         match sim.step()? {

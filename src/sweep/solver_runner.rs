@@ -57,6 +57,15 @@ impl SolverRunner {
     }
 }
 
+/// The ALE interpolation of a case's `numerics.remap`.
+pub fn ale_remap(remap: HistoryRemap) -> Remap {
+    match remap {
+        HistoryRemap::Bilinear => Remap::Bilinear,
+        HistoryRemap::Biquadratic => Remap::Quadratic,
+        HistoryRemap::Bicubic => Remap::Cubic,
+    }
+}
+
 /// The frame the solver works in, relative to the lab ([`CaseSpec::solver_frame`]).
 #[derive(Debug, Clone, Copy, PartialEq)]
 enum Frame {
@@ -362,11 +371,7 @@ fn run_moving<D: Domain>(
             }
         }
     };
-    sim.set_remap(match case.numerics.remap {
-        HistoryRemap::Bilinear => Remap::Bilinear,
-        HistoryRemap::Biquadratic => Remap::Quadratic,
-        HistoryRemap::Bicubic => Remap::Cubic,
-    });
+    sim.set_remap(ale_remap(case.numerics.remap));
     let fields = |sim: &MovingParticles<D>| FlowFields {
         u: sim.flow().velocity().to_vec(),
         p: sim.flow().pressure().to_vec(),
