@@ -169,8 +169,8 @@ pub struct Numerics {
     pub quadtree_level: u32,
     /// Interpolation of the history fields onto the moving mesh (temporary ALE); default
     /// bicubic (earlier defaults: biquadratic, and before that the thesis' bilinear map).
-    /// Always written into the canonical case: cases that named their remap keep their ids when
-    /// the default changes.
+    /// Always written into the canonical case of a viscoelastic case: cases that named their
+    /// remap keep their ids when the default changes (Newtonian cases leave it out of their id).
     #[serde(default)]
     pub remap: HistoryRemap,
     /// How the polymer stress enters the flow solve; default `auto`. Not written into the canonical
