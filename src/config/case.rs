@@ -156,6 +156,12 @@ pub struct Numerics {
     /// centre line (thesis Fig. 5.25; Couette: at mid-gap); 1 = uniform.
     #[serde(default = "one")]
     pub grading: f64,
+    /// Ratio (≥ 1) of the largest to the smallest element size along a confined-shear channel,
+    /// finest at x = 0 and coarsest at the periodic seam (symmetric, so the sizes match across
+    /// it); 1 = uniform (default; then not part of the case id). Refines where particles end up
+    /// in a string started around x = 0 (thesis Fig. 5.25 refines around the particles).
+    #[serde(default = "one", skip_serializing_if = "is_one")]
+    pub grading_x: f64,
     /// Refine around particles with the grid deformation method (thesis 3.3.4). Not implemented:
     /// `true` is refused by validation, so that a case never runs silently without it.
     #[serde(default)]
@@ -299,6 +305,10 @@ impl Default for Stop {
     fn default() -> Self {
         Stop { early_stop: true }
     }
+}
+
+fn is_one(v: &f64) -> bool {
+    *v == 1.0
 }
 
 fn one() -> f64 {

@@ -208,6 +208,31 @@ fn grading_below_one_and_grid_deformation_are_refused() {
     assert!(e.message.contains("not implemented"), "{}", e.message);
     assert!(CaseSpec::from_value(with("grading", json!(3.0))).is_ok());
     assert!(CaseSpec::from_value(with("grid_deformation", json!(false))).is_ok());
+    assert_eq!(
+        field_of(with("grading_x", json!(0.9))),
+        "numerics.grading_x"
+    );
+    assert!(CaseSpec::from_value(with("grading_x", json!(2.0))).is_ok());
+    let mut c = couette();
+    c["numerics"]["grading_x"] = json!(2.0);
+    assert_eq!(
+        field_of(c),
+        "numerics.grading_x",
+        "no x along the Couette gap"
+    );
+}
+
+#[test]
+fn uniform_grading_along_x_is_not_part_of_the_case() {
+    let mut v = shear();
+    let plain = serde_json::to_value(CaseSpec::from_value(v.clone()).unwrap()).unwrap();
+    assert!(plain["numerics"].get("grading_x").is_none());
+    v["numerics"]["grading_x"] = json!(1.0);
+    let spelled = serde_json::to_value(CaseSpec::from_value(v.clone()).unwrap()).unwrap();
+    assert_eq!(plain, spelled, "the default spelled out is the same case");
+    v["numerics"]["grading_x"] = json!(2.0);
+    let graded = serde_json::to_value(CaseSpec::from_value(v).unwrap()).unwrap();
+    assert_eq!(graded["numerics"]["grading_x"], json!(2.0));
 }
 
 #[test]

@@ -164,6 +164,21 @@ impl CaseSpec {
                 ),
             ));
         }
+        if !(n.grading_x >= 1.0 && n.grading_x.is_finite()) {
+            return Err(SpecError::new(
+                "numerics.grading_x",
+                format!(
+                    "the ratio of the largest to the smallest element along the channel must be ≥ 1 (got {})",
+                    n.grading_x
+                ),
+            ));
+        }
+        if n.grading_x != 1.0 && !matches!(self.geometry, Geometry::ConfinedShear { .. }) {
+            return Err(SpecError::new(
+                "numerics.grading_x",
+                "grading along x applies to the confined-shear channel only; remove it",
+            ));
+        }
         if n.grid_deformation {
             return Err(SpecError::new(
                 "numerics.grid_deformation",

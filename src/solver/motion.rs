@@ -31,6 +31,8 @@ pub struct ShearCase {
     pub mesh: [usize; 2],
     /// Largest / smallest element height across the channel, finest at the centre line (1 = uniform).
     pub grading: f64,
+    /// Largest / smallest element length along the channel, finest at x = 0 (1 = uniform).
+    pub grading_x: f64,
     /// Time step.
     pub dt: f64,
     /// End time.
@@ -105,10 +107,11 @@ fn wrap(x: f64, l: f64) -> f64 {
 }
 
 impl ShearCase {
-    /// The mesh of the channel: uniform along it, graded across it by `grading`.
+    /// The mesh of the channel: graded along it by `grading_x` (finest at x = 0), across it by
+    /// `grading` (finest at the centre line).
     pub fn build_mesh(&self) -> Mesh {
         Mesh::rectangle(
-            Axis::uniform(-0.5 * self.l, 0.5 * self.l, self.mesh[0]),
+            Axis::centred(-0.5 * self.l, 0.5 * self.l, self.mesh[0], self.grading_x),
             Axis::centred(-0.5 * self.h, 0.5 * self.h, self.mesh[1], self.grading),
             true,
         )

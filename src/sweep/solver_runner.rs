@@ -47,6 +47,7 @@ impl SolverRunner {
             x0,
             mesh: case.numerics.mesh,
             grading: case.numerics.grading,
+            grading_x: case.numerics.grading_x,
             dt: case.numerics.dt,
             t_end: case.numerics.t_end,
             cut: CutOptions {
@@ -241,7 +242,7 @@ impl CaseRunner for SolverRunner {
             Geometry::ConfinedShear { h, l, wall_speed } if viscoelastic => {
                 let [nx, ny] = case.numerics.mesh;
                 let mesh = Mesh::rectangle(
-                    Axis::uniform(-0.5 * l, 0.5 * l, nx),
+                    Axis::centred(-0.5 * l, 0.5 * l, nx, case.numerics.grading_x),
                     Axis::centred(-0.5 * h, 0.5 * h, ny, case.numerics.grading),
                     true,
                 );
