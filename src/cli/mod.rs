@@ -473,6 +473,14 @@ fn validate_particles(
                 println!("| {:.2} | {} |", runs[0].series[i].0, cells.join(" | "));
             }
             println!();
+            for r in runs.iter().filter(|r| r.error.is_some()) {
+                println!(
+                    "{} stopped early: {}",
+                    r.label,
+                    r.error.as_deref().unwrap_or("")
+                );
+                ok = false;
+            }
             for (k, r) in runs.iter().enumerate().skip(1) {
                 let d = max_omega_difference(r, &runs[0]);
                 println!(

@@ -137,6 +137,8 @@ pub struct FrameRun {
     pub label: String,
     /// (t*, ω*, V*) of particle 0 at every sample.
     pub series: Vec<(f64, f64, f64)>,
+    /// `None` if the run reached its end time, else why it stopped.
+    pub error: Option<String>,
     /// Wall-clock seconds.
     pub seconds: f64,
 }
@@ -191,10 +193,15 @@ pub fn lab_frame_comparison(mesh: [usize; 2], t_end: f64, remaps: &[&str]) -> Ve
         let spec = single_particle_case(mesh, t_end, remap, co_moving);
         let t0 = std::time::Instant::now();
         let mut obs = Series(Vec::new());
-        let _ = SolverRunner.run(&spec, 1, &mut obs);
+        let res = SolverRunner.run(&spec, 1, &mut obs);
+        let error = match res.status {
+            RunStatus::Finished => None,
+            RunStatus::Diverged { reason } | RunStatus::Failed { error: reason } => Some(reason),
+        };
         FrameRun {
             label,
             series: obs.0,
+            error,
             seconds: t0.elapsed().as_secs_f64(),
         }
     })
