@@ -71,7 +71,14 @@ def read_snapshot(h5, group: str):
 def draw_case(f: fl.Figures, c: fl.Case, path: str, page: str) -> bool:
     import h5py
 
-    with h5py.File(path, "r") as h5:
+    # a running sweep holds the file open for writing: read without HDF5's file lock (figures of
+    # a sweep in progress; a snapshot being written at that moment may fail to read)
+    try:
+        h5 = h5py.File(path, "r", locking=False)
+    except OSError as e:
+        f.log(f"{NAME}: {path} cannot be read now ({e}); skipped")
+        return False
+    with h5:
         groups = sorted(k for k in h5.keys() if k.startswith("step_"))
         if not groups:
             f.log(f"{NAME}: {path} has no step_* groups")

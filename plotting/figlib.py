@@ -141,6 +141,16 @@ class Case:
         return next(iter(g.values()), {}) if isinstance(g, dict) else {}
 
     @property
+    def settings(self) -> str | None:
+        """The numerical settings beyond mesh and Δt that tell set-ups apart ('grading_x 3, remap
+        bicubic'), or None: cases that differ only in these must not share a panel."""
+        n = self.params.get("numerics", {})
+        skip = {"mesh", "dt", "t_end", "quadtree_level", "grid_deformation"}
+        parts = [f"{k} {fmt(v)}" for k, v in sorted(n.items())
+                 if k not in skip and not (k == "grading" and v == 1)]
+        return ", ".join(parts) or None
+
+    @property
     def model(self) -> str:
         return self.params.get("fluid", {}).get("model", "?")
 
@@ -447,7 +457,7 @@ def kind_text(c: Case) -> str:
 
 
 #: Parameters that define a confined-shear set-up apart from the initial positions (panel keys).
-SHEAR_KEYS = ["model", "wi", "alpha", "beta", "h", "a", "l", "n", "mesh", "dt"]
+SHEAR_KEYS = ["model", "wi", "alpha", "beta", "h", "a", "l", "n", "mesh", "dt", "settings"]
 
 
 def shear_groups(cases, keys=SHEAR_KEYS):
