@@ -155,23 +155,19 @@ impl CaseSpec {
                 "both element counts must be ≥ 1",
             ));
         }
-        if !(n.grading >= 1.0 && n.grading.is_finite()) {
-            return Err(SpecError::new(
-                "numerics.grading",
-                format!(
-                    "the ratio of the largest to the smallest element across the channel must be ≥ 1 (got {})",
-                    n.grading
-                ),
-            ));
-        }
-        if !(n.grading_x >= 1.0 && n.grading_x.is_finite()) {
-            return Err(SpecError::new(
-                "numerics.grading_x",
-                format!(
-                    "the ratio of the largest to the smallest element along the channel must be ≥ 1 (got {})",
-                    n.grading_x
-                ),
-            ));
+        for (field, ratio, direction) in [
+            ("numerics.grading", n.grading, "across"),
+            ("numerics.grading_x", n.grading_x, "along"),
+        ] {
+            if !(ratio >= 1.0 && ratio.is_finite()) {
+                return Err(SpecError::new(
+                    field,
+                    format!(
+                        "the ratio of the largest to the smallest element {direction} the channel \
+                         must be ≥ 1 (got {ratio})"
+                    ),
+                ));
+            }
         }
         if n.grading_x != 1.0 && !matches!(self.geometry, Geometry::ConfinedShear { .. }) {
             return Err(SpecError::new(
