@@ -509,15 +509,7 @@ fn quadratic_1d(ex: usize, xi: f64, n: usize, periodic: bool) -> (isize, [f64; 3
     if !periodic && n >= 2 {
         c = c.clamp(1, n as isize - 1);
     }
-    let eta = p - c as f64;
-    (
-        c,
-        [
-            0.5 * eta * (eta - 1.0),
-            1.0 - eta * eta,
-            0.5 * eta * (eta + 1.0),
-        ],
-    )
+    (c, lagrange_weights(p - c as f64))
 }
 
 /// Base vertex index and cubic Lagrange weights (at base − 1, base, base + 1, base + 2) of the
@@ -529,16 +521,17 @@ fn cubic_1d(ex: usize, xi: f64, n: usize, periodic: bool) -> (isize, [f64; 4]) {
     if !periodic && n >= 3 {
         c = c.clamp(1, n as isize - 2);
     }
-    let t = p - c as f64;
-    (
-        c,
-        [
-            -t * (t - 1.0) * (t - 2.0) / 6.0,
-            (t + 1.0) * (t - 1.0) * (t - 2.0) / 2.0,
-            -(t + 1.0) * t * (t - 2.0) / 2.0,
-            (t + 1.0) * t * (t - 1.0) / 6.0,
-        ],
-    )
+    (c, lagrange_weights(p - c as f64))
+}
+
+/// Lagrange weights at `t` of the N equally spaced nodes −1, 0, …, N − 2.
+fn lagrange_weights<const N: usize>(t: f64) -> [f64; N] {
+    std::array::from_fn(|a| {
+        (0..N)
+            .filter(|&b| b != a)
+            .map(|b| (t - (b as f64 - 1.0)) / (a as f64 - b as f64))
+            .product()
+    })
 }
 
 /// Q1 vertex id at logical vertex position (i, j) (i wrapped on a periodic axis).
