@@ -271,3 +271,29 @@ fn the_particle_frame_follows_the_undisturbed_flow_at_the_first_particle() {
     );
     assert_eq!(field_of(both), "numerics.frame");
 }
+
+#[test]
+fn meshes_smaller_than_the_remap_stencil_are_refused() {
+    let mesh = |m: Value, remap: &str| {
+        let v = set(shear(), "/numerics/mesh", m);
+        set_remap(v, remap)
+    };
+    let e = CaseSpec::from_value(mesh(json!([40, 3]), "bicubic")).expect_err("refused");
+    assert_eq!(e.field, "numerics.mesh");
+    assert!(e.message.contains("4×4"), "{}", e.message);
+    assert!(CaseSpec::from_value(mesh(json!([40, 3]), "biquadratic")).is_ok());
+    assert_eq!(
+        field_of(mesh(json!([2, 40]), "biquadratic")),
+        "numerics.mesh"
+    );
+    assert!(CaseSpec::from_value(mesh(json!([4, 4]), "bicubic")).is_ok());
+    // a Newtonian case carries no history: no remap, no limit beyond one element
+    let mut v = set(shear(), "/numerics/mesh", json!([40, 2]));
+    v["fluid"] = json!({"model": "newtonian", "wi": 0.0});
+    assert!(CaseSpec::from_value(v).is_ok());
+}
+
+fn set_remap(mut v: Value, remap: &str) -> Value {
+    v["numerics"]["remap"] = json!(remap);
+    v
+}

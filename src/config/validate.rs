@@ -3,7 +3,9 @@
 
 use serde_json::Value;
 
-use super::case::{CaseSpec, FrameChoice, Geometry, Layout, Model, StressCoupling};
+use super::case::{
+    CaseSpec, FrameChoice, Geometry, HistoryRemap, Layout, Model, StressCoupling,
+};
 use super::error::{json_path_at_line, SpecError};
 use crate::geometry::layout;
 
@@ -154,6 +156,24 @@ impl CaseSpec {
                 "numerics.mesh",
                 "both element counts must be ≥ 1",
             ));
+        }
+        if self.fluid.wi > 0.0 {
+            // the history remap's stencil: N vertices per axis, distinct on a periodic axis too
+            let (stencil, name) = match n.remap {
+                HistoryRemap::Bilinear => (2, "bilinear"),
+                HistoryRemap::Biquadratic => (3, "biquadratic"),
+                HistoryRemap::Bicubic => (4, "bicubic"),
+            };
+            if n.mesh[0].min(n.mesh[1]) < stencil {
+                return Err(SpecError::new(
+                    "numerics.mesh",
+                    format!(
+                        "the {name} history remap interpolates on {stencil}×{stencil} vertices: \
+                         the mesh needs at least {stencil} elements in each direction (got {}×{})",
+                        n.mesh[0], n.mesh[1]
+                    ),
+                ));
+            }
         }
         for (field, ratio, direction) in [
             ("numerics.grading", n.grading, "across"),
