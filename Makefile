@@ -33,7 +33,7 @@ lint: deps
 # database (results/demo.db, resumable: a rerun skips finished cases), its table and its figures.
 demo: build figures-deps
 	$(BIN) sweep sweeps/demo.toml --db results/demo.db
-	$(BIN) query cases --db results/demo.db
+	$(BIN) query cases --db results/demo.db --sweep demo
 	$(MAKE) --no-print-directory figures DB=results/demo.db
 	@echo "demo: database results/demo.db, figures in results/figures/demo/"
 

@@ -141,6 +141,34 @@ fn outcomes_divergence_and_rerun() {
     assert_eq!(store.integrity_check().unwrap(), "ok");
 }
 
+#[test]
+fn an_edited_sweep_lists_its_current_cases_and_keeps_the_old_results() {
+    let dir = scratch("edited");
+    let db = dir.join("r.db");
+    let run = |wi: &str| {
+        let sweep = parse(&sweep_text("edited", wi, "[2]", 300), &dir);
+        let cases = expand(&sweep).unwrap();
+        run_sweep(&sweep, &cases, &FakeRunner::new(by_wi), &opts(&db, 1)).unwrap()
+    };
+    assert_eq!(run("[1, 2]").ran, 2);
+    // the file now sweeps Wi = 2 and 6: Wi = 2 is done already, Wi = 1 is no longer part of it
+    let s = run("[2, 6]");
+    assert_eq!((s.ran, s.skipped), (1, 1));
+    let store = Store::open(&db).unwrap();
+    let listed = store.query(&QueryKind::Cases, Some("edited"), &[]).unwrap();
+    let labels: BTreeSet<String> = listed
+        .rows
+        .iter()
+        .map(|r| r[1].as_str().unwrap().to_string())
+        .collect();
+    assert_eq!(
+        labels,
+        BTreeSet::from(["wi=2 n=2".into(), "wi=6 n=2".into()])
+    );
+    let all = store.query(&QueryKind::Cases, None, &[]).unwrap();
+    assert_eq!(all.rows.len(), 3, "the Wi = 1 results stay in the database");
+}
+
 /// Child half of the kill test: runs a slow sweep until killed. Does nothing unless started by the parent.
 #[test]
 #[ignore = "child process of kill_minus_9_then_resume"]

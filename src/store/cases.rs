@@ -157,7 +157,9 @@ impl Store {
     }
 
     /// Inserts the sweep's cases that are not in the database yet (as `pending`) and links all of them to
-    /// the sweep, in one transaction.
+    /// the sweep, in one transaction. Cases linked by an earlier version of the sweep file that its
+    /// current version no longer expands to are unlinked (their rows and results stay in the database;
+    /// `query --sweep NAME` lists the sweep as it stands).
     pub fn add_cases(&mut self, sweep_id: i64, cases: &[PlannedCase]) -> Result<()> {
         let err = self.sql_err();
         let path = self.path.clone();
@@ -165,6 +167,12 @@ impl Store {
             .conn
             .transaction_with_behavior(TransactionBehavior::Immediate)
             .map_err(&err)?;
+        // relinked below: the links are the current expansion of the sweep file
+        tx.execute(
+            "DELETE FROM sweep_cases WHERE sweep_id = ?1",
+            params![sweep_id],
+        )
+        .map_err(&err)?;
         {
             let mut insert = tx
                 .prepare(
