@@ -389,6 +389,34 @@ def velocities(case: Case, tr: Track) -> tuple[np.ndarray, np.ndarray, str]:
 
 
 # ------------------------------------------------------------------------------------------------- families
+def match_common(ta, va, tb, vb, tol: float):
+    """(t, values of a, values of b, how matched) at the sample times common to two series, or None.
+    Non-finite samples are dropped; within the common time range the sparser series' times are matched in
+    the other one: at equal times (within `tol`) directly, otherwise by linear interpolation in t."""
+    ka, kb = np.isfinite(ta) & np.isfinite(va), np.isfinite(tb) & np.isfinite(vb)
+    ta, va, tb, vb = ta[ka], va[ka], tb[kb], vb[kb]
+    if len(ta) == 0 or len(tb) == 0:
+        return None
+    lo, hi = max(ta[0], tb[0]), min(ta[-1], tb[-1])
+    ina, inb = (ta >= lo - tol) & (ta <= hi + tol), (tb >= lo - tol) & (tb <= hi + tol)
+    if not ina.any() or not inb.any():
+        return None
+    swap = inb.sum() < ina.sum()
+    (t1, v1, i1), (t2, v2, i2) = ((tb, vb, inb), (ta, va, ina)) if swap else ((ta, va, ina), (tb, vb, inb))
+    t1, v1, t2, v2 = t1[i1], v1[i1], t2[i2], v2[i2]
+    # t1 is the sparser series: match its times in t2
+    j = np.clip(np.searchsorted(t2, t1), 0, len(t2) - 1)
+    jl = np.clip(j - 1, 0, len(t2) - 1)
+    near = np.where(np.abs(t2[jl] - t1) < np.abs(t2[j] - t1), jl, j)
+    if np.all(np.abs(t2[near] - t1) <= tol):
+        w2, how = v2[near], "equal t"
+    elif len(t2) >= 2:
+        w2, how = np.interp(t1, t2, v2), "interpolated"
+    else:
+        return None
+    return (t1, w2, v1, how) if swap else (t1, v1, w2, how)
+
+
 def group(cases, key, sort=None):
     """[(key value, [cases])] in first-seen order of keys (or sorted by `sort(key)`)."""
     groups: dict = {}

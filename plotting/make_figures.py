@@ -28,6 +28,7 @@ import figlib  # noqa: E402
 SCRIPTS = [
     "migration_r",
     "migration_vr",
+    "single_particle",
     "alignment_trajectories",
     "alignment_velocities",
     "alignment_steady",

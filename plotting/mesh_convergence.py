@@ -184,30 +184,8 @@ def common_values(f: fl.Figures, a: fl.Case, b: fl.Case, q: str):
     Equal times (same steps) are matched directly; otherwise the denser series is interpolated linearly in
     t onto the sparser one's times within the common time range."""
     (ta, va), (tb, vb) = series(f, a)[q], series(f, b)[q]
-    ka, kb = np.isfinite(ta) & np.isfinite(va), np.isfinite(tb) & np.isfinite(vb)
-    ta, va, tb, vb = ta[ka], va[ka], tb[kb], vb[kb]
-    if len(ta) == 0 or len(tb) == 0:
-        return None
-    lo, hi = max(ta[0], tb[0]), min(ta[-1], tb[-1])
     dts = [x.dt * x.rate for x in (a, b) if x.dt]
-    tol = 1e-6 * min(dts) if dts else 1e-9
-    ina, inb = (ta >= lo - tol) & (ta <= hi + tol), (tb >= lo - tol) & (tb <= hi + tol)
-    if not ina.any() or not inb.any():
-        return None
-    # Match the sparser series' times in the other one.
-    swap = inb.sum() < ina.sum()
-    (t1, v1, i1), (t2, v2, i2) = ((tb, vb, inb), (ta, va, ina)) if swap else ((ta, va, ina), (tb, vb, inb))
-    t1, v1, t2, v2 = t1[i1], v1[i1], t2[i2], v2[i2]
-    j = np.clip(np.searchsorted(t2, t1), 0, len(t2) - 1)
-    jl = np.clip(j - 1, 0, len(t2) - 1)
-    near = np.where(np.abs(t2[jl] - t1) < np.abs(t2[j] - t1), jl, j)
-    if np.all(np.abs(t2[near] - t1) <= tol):
-        w2, how = v2[near], "equal t"
-    else:
-        if len(t2) < 2:
-            return None
-        w2, how = np.interp(t1, t2, v2), "interpolated"
-    return (t1, w2, v1, how) if swap else (t1, v1, w2, how)
+    return fl.match_common(ta, va, tb, vb, 1e-6 * min(dts) if dts else 1e-9)
 
 
 # ---------------------------------------------------------------------------------------------- the table

@@ -1,6 +1,7 @@
 //! Figures end to end: builds a small results database with the fake runner (confined-shear cases ending
 //! in string / repel / pass / jammed / diverged, a δ × Wi regime sweep, Couette migration cases over r0*,
-//! Wi, α and ε, one case with an HDF5 snapshot file, and a Couette and a shear set-up on two meshes), runs
+//! Wi, α and ε, one case with an HDF5 snapshot file, a Couette and a shear set-up on two meshes, and one
+//! particle in confined shear started at three heights on two meshes), runs
 //! `plotting/make_figures.py` on it with the Python of the repository's `.venv/` (created by
 //! `make figures-deps` when missing), and checks that every expected figure exists as a valid PNG and PDF
 //! and every table as Markdown. A second test runs the scripts on an empty database: they must still
@@ -25,6 +26,7 @@ const EXPECTED_FIGURES: &[&str] = &[
     "migration_r_by_alpha",
     "migration_r_by_eps",
     "migration_vr",
+    "single_particle",
     "alignment_trajectories",
     "alignment_velocities",
     "alignment_steady_omega",
@@ -36,10 +38,13 @@ const EXPECTED_FIGURES: &[&str] = &[
 const EXPECTED_TABLES: &[&str] = &["tables/string_formation.md", "tables/string_summary.md"];
 /// The mesh-convergence table (thesis Table 3.1 style).
 const MESH_TABLE: &str = "tables/mesh_convergence.md";
+/// The one-particle table (thesis §5.5): migration per start height and mesh.
+const SINGLE_TABLE: &str = "tables/single_particle.md";
 /// Figures made even from an empty database (each saying what is missing); `field_snapshots` is skipped.
 const EMPTY_DB_FIGURES: &[&str] = &[
     "migration_r_by_r0",
     "migration_vr",
+    "single_particle",
     "alignment_trajectories",
     "alignment_velocities",
     "alignment_steady_omega",
@@ -114,7 +119,21 @@ fn couette_behaviour(s: &CaseSpec) -> FakeBehaviour {
     }
 }
 
-/// The database of the test (45 fake cases; a second or two).
+/// One particle in confined shear, by start height y0 (centre line at 0, H = 1): it stays near the bottom
+/// wall (Y0/H = 0.1, `timeout`), moves to the centre line from Y0/H = 0.3 (`steady`) and to the wall from
+/// Y0/H = 0.4 (`wall_contact`); not physics, but one case of each migration direction.
+fn single_particle_behaviour(s: &CaseSpec) -> FakeBehaviour {
+    let y0 = s.initial_positions().first().map_or(0.0, |p| p[1]);
+    if y0 < -0.3 {
+        FakeBehaviour::Produce(OutcomeKind::Migrated)
+    } else if y0 < -0.15 {
+        FakeBehaviour::Produce(OutcomeKind::Steady)
+    } else {
+        FakeBehaviour::Produce(OutcomeKind::WallContact)
+    }
+}
+
+/// The database of the test (51 fake cases; a second or two).
 fn build_database(dir: &Path) -> PathBuf {
     let db = dir.join("figs.db");
     let shear = sweep(
@@ -223,16 +242,44 @@ numerics.mesh = [[40, 10], [80, 20]]
 "#,
     );
     run(&db, &shear_mesh, &FakeRunner::new(shear_behaviour));
+    // One particle started at three heights, each in the frame moving with the fluid there (zipped with the
+    // start, as in sweeps/single_particle_migration.toml), on two meshes.
+    let single = sweep(
+        dir,
+        "single_particle.toml",
+        r#"
+name = "single_particle"
+[base]
+geometry.confined_shear = { h = 1.0, l = 2.0 }
+fluid = { model = "giesekus", wi = 1.0, alpha = 0.2, beta = 0.09090909090909091 }
+particles = { radius = 0.05, layout.explicit.positions = [[0.0, -0.4]] }
+numerics = { mesh = [40, 20], dt = 0.02, t_end = 10.0 }
+output = { sample_every = 5 }
+[axes]
+numerics.mesh = [[40, 20], [60, 30]]
+[[zip]]
+"particles.layout.explicit.positions" = [[[0.0, -0.4]], [[0.0, -0.2]], [[0.0, -0.1]]]
+"numerics.frame_velocity" = [-0.4, -0.2, -0.1]
+"#,
+    );
+    run(&db, &single, &FakeRunner::new(single_particle_behaviour));
     let store = Store::open(&db).unwrap();
     let count = |sql: &str| -> i64 { store.connection().query_row(sql, [], |r| r.get(0)).unwrap() };
-    assert_eq!(count("SELECT COUNT(*) FROM cases"), 12 + 6 + 24 + 1 + 2);
+    assert_eq!(count("SELECT COUNT(*) FROM cases"), 12 + 6 + 24 + 1 + 2 + 6);
     assert_eq!(
         count("SELECT COUNT(*) FROM sweep_cases sc JOIN sweeps s ON s.id = sc.sweep_id WHERE s.name IN ('couette_mesh', 'shear_mesh')"),
         4,
         "the two mesh sweeps have two cases each"
     );
     for kind in [
-        "string", "repel", "pass", "jammed", "diverged", "migrated", "steady",
+        "string",
+        "repel",
+        "pass",
+        "jammed",
+        "diverged",
+        "migrated",
+        "steady",
+        "wall_contact",
     ] {
         assert!(
             count(&format!(
@@ -385,6 +432,33 @@ fn figures_from_a_fake_sweep_database() {
             "mesh convergence table has no row {row}:\n{mesh}"
         );
     }
+    // One particle: each start on both meshes with its migration direction; the coarser mesh compared with
+    // the finer one (the fake trajectories do not depend on the mesh: no difference).
+    let single = std::fs::read_to_string(figs.join(SINGLE_TABLE))
+        .unwrap_or_else(|e| panic!("missing table {SINGLE_TABLE}: {e}\n{log}"));
+    for (start, direction) in [
+        ("0.1", "none"),
+        ("0.3", "towards centre"),
+        ("0.4", "towards wall"),
+    ] {
+        for mesh in ["40×20", "60×30"] {
+            let head = format!("| {start} | {mesh} |");
+            let row = single
+                .lines()
+                .find(|l| l.starts_with(&head))
+                .unwrap_or_else(|| panic!("no row {head} in the one-particle table:\n{single}"));
+            assert!(
+                row.contains(&format!("| {direction} |")),
+                "start {start} should move {direction}:\n{row}"
+            );
+            if mesh == "40×20" {
+                assert!(
+                    row.contains("| 60×30 |") && row.ends_with("| 0.00e+00 | 0.00e+00 |"),
+                    "the coarser mesh is compared with the finer one:\n{row}"
+                );
+            }
+        }
+    }
 }
 
 #[test]
@@ -405,6 +479,12 @@ fn figures_from_an_empty_database_say_what_is_missing() {
     assert!(
         mesh.contains("Nothing to compare yet"),
         "the mesh table says what is missing:\n{mesh}"
+    );
+    let single = std::fs::read_to_string(figs.join(SINGLE_TABLE))
+        .unwrap_or_else(|e| panic!("missing table {SINGLE_TABLE}: {e}\n{log}"));
+    assert!(
+        single.contains("Nothing to show yet"),
+        "the one-particle table says what is missing:\n{single}"
     );
     assert!(
         !figs.join("field_snapshots.png").exists(),
