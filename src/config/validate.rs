@@ -3,9 +3,7 @@
 
 use serde_json::Value;
 
-use super::case::{
-    CaseSpec, FrameChoice, Geometry, HistoryRemap, Layout, Model, StressCoupling,
-};
+use super::case::{CaseSpec, FrameChoice, Geometry, HistoryRemap, Layout, Model, StressCoupling};
 use super::error::{json_path_at_line, SpecError};
 use crate::geometry::layout;
 
