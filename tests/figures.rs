@@ -10,6 +10,8 @@
 //! Needs python3 (≥ 3.11) with venv/pip and the network (PyPI) the first time; if they are missing the test
 //! fails with the message of `make figures-deps`, it does not skip.
 
+mod common;
+use common::Scratch;
 use std::path::{Path, PathBuf};
 use std::process::Command;
 use std::time::Instant;
@@ -64,11 +66,8 @@ fn repo() -> PathBuf {
     PathBuf::from(env!("CARGO_MANIFEST_DIR"))
 }
 
-fn scratch(name: &str) -> PathBuf {
-    let d = std::env::temp_dir().join(format!("xpflow-figs-{name}-{}", std::process::id()));
-    let _ = std::fs::remove_dir_all(&d);
-    std::fs::create_dir_all(&d).unwrap();
-    d
+fn scratch(name: &str) -> Scratch {
+    Scratch::new("figs", name)
 }
 
 fn sweep(dir: &Path, file: &str, text: &str) -> SweepSpec {

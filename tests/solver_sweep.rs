@@ -2,6 +2,8 @@
 //! samples, a decided-or-timeout outcome and HDF5 snapshots; viscoelastic confined-shear and
 //! Couette cases run through the moving-particle step; cases with nothing to simulate are refused.
 
+mod common;
+use common::Scratch;
 use std::path::PathBuf;
 
 use xpflow::config::SweepSpec;
@@ -9,15 +11,12 @@ use xpflow::store::Store;
 use xpflow::sweep::solver_runner::SolverRunner;
 use xpflow::sweep::{expand, run_sweep, SweepOptions};
 
-fn scratch(name: &str) -> PathBuf {
-    let d = std::env::temp_dir().join(format!("xpflow-test-{name}-{}", std::process::id()));
-    let _ = std::fs::remove_dir_all(&d);
-    std::fs::create_dir_all(&d).unwrap();
-    d
+fn scratch(name: &str) -> Scratch {
+    Scratch::new("test", name)
 }
 
 /// A fresh scratch directory `name` with the sweep file `s.toml`; returns (directory, file).
-fn sweep_file(name: &str, toml: &str) -> (PathBuf, PathBuf) {
+fn sweep_file(name: &str, toml: &str) -> (Scratch, PathBuf) {
     let dir = scratch(name);
     let file = dir.join("s.toml");
     std::fs::write(&file, toml).unwrap();

@@ -1,7 +1,9 @@
 //! The sweep/query/status handlers as functions: example sweeps validate, invalid sweep files exit with
 //! code 2 naming file, case and field and write nothing, unsupported cases write nothing, queries render.
 
-use std::path::{Path, PathBuf};
+mod common;
+use common::Scratch;
+use std::path::Path;
 use std::process::ExitCode;
 
 use xpflow::cli::sweep_cmds::{
@@ -12,11 +14,8 @@ use xpflow::observe::OutcomeKind;
 use xpflow::store::Format;
 use xpflow::sweep::{expand, FakeBehaviour, FakeRunner, UnbuiltSolver};
 
-fn scratch(name: &str) -> PathBuf {
-    let d = std::env::temp_dir().join(format!("xpflow-cli-{name}-{}", std::process::id()));
-    let _ = std::fs::remove_dir_all(&d);
-    std::fs::create_dir_all(&d).unwrap();
-    d
+fn scratch(name: &str) -> Scratch {
+    Scratch::new("cli", name)
 }
 
 fn args(file: &Path, db: &Path) -> SweepArgs {

@@ -1,6 +1,8 @@
 //! Sweep engine end to end with fake runners: outcomes and divergence, resume after `kill -9`, two sweeps
 //! writing one database at once.
 
+mod common;
+use common::Scratch;
 use std::collections::BTreeSet;
 use std::path::{Path, PathBuf};
 use std::sync::Mutex;
@@ -19,11 +21,8 @@ const CHILD_STEP_DELAY: Duration = Duration::from_millis(10);
 /// How long the kill test waits for the child to finish some cases before giving up.
 const CHILD_DEADLINE: Duration = Duration::from_secs(60);
 
-fn scratch(name: &str) -> PathBuf {
-    let d = std::env::temp_dir().join(format!("xpflow-test-{name}-{}", std::process::id()));
-    let _ = std::fs::remove_dir_all(&d);
-    std::fs::create_dir_all(&d).unwrap();
-    d
+fn scratch(name: &str) -> Scratch {
+    Scratch::new("test", name)
 }
 
 /// A shear sweep over Wi × N with t_end = steps·dt.
@@ -199,7 +198,7 @@ fn kill_minus_9_then_resume() {
             "--test-threads",
             "1",
         ])
-        .env(CHILD_ENV, &dir)
+        .env(CHILD_ENV, &*dir)
         .stdout(std::process::Stdio::null())
         .spawn()
         .unwrap();

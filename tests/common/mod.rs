@@ -1,0 +1,41 @@
+//! Helpers shared by the integration tests.
+
+use std::ops::Deref;
+use std::path::{Path, PathBuf};
+
+/// A scratch directory under the system's temporary directory, emptied when created and removed
+/// when dropped — unless the test is failing, so that its files can be inspected.
+pub struct Scratch(PathBuf);
+
+impl Scratch {
+    /// `<tmp>/xpflow-<prefix>-<name>-<pid>`, created empty.
+    pub fn new(prefix: &str, name: &str) -> Scratch {
+        let d = std::env::temp_dir().join(format!("xpflow-{prefix}-{name}-{}", std::process::id()));
+        let _ = std::fs::remove_dir_all(&d);
+        std::fs::create_dir_all(&d).unwrap();
+        Scratch(d)
+    }
+}
+
+impl Deref for Scratch {
+    type Target = Path;
+    fn deref(&self) -> &Path {
+        &self.0
+    }
+}
+
+impl AsRef<Path> for Scratch {
+    fn as_ref(&self) -> &Path {
+        &self.0
+    }
+}
+
+impl Drop for Scratch {
+    fn drop(&mut self) {
+        if std::thread::panicking() {
+            eprintln!("scratch directory kept: {}", self.0.display());
+        } else {
+            let _ = std::fs::remove_dir_all(&self.0);
+        }
+    }
+}
