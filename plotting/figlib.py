@@ -146,9 +146,19 @@ class Case:
         bicubic'), or None: cases that differ only in these must not share a panel."""
         n = self.params.get("numerics", {})
         skip = {"mesh", "dt", "t_end", "quadtree_level", "grid_deformation"}
-        parts = [f"{k} {fmt(v)}" for k, v in sorted(n.items())
+        parts = [f"{k} {self.frame_text() if k == 'frame_velocity' else fmt(v)}" for k, v in sorted(n.items())
                  if k not in skip and not (k == "grading" and v == 1)]
         return ", ".join(parts) or None
+
+    def frame_text(self) -> str:
+        """numerics.frame_velocity as text: 'of the fluid at the start' when it is the undisturbed shear
+        velocity γ̇·y at the first particle's start height (the single-particle sweeps zip the two, so such
+        starts share a set-up), else its value."""
+        v = self.params.get("numerics", {}).get("frame_velocity", 0.0)
+        start = self.initial_positions()
+        if self.geometry == "confined_shear" and start and math.isclose(v, self.rate * start[0][1], abs_tol=1e-12):
+            return "of the fluid at the start"
+        return fmt(v)
 
     @property
     def model(self) -> str:
