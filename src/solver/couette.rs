@@ -220,6 +220,7 @@ impl CouetteCase {
             u: sol.u,
             p: sol.p,
             particles,
+            tau: Vec::new(),
         };
         Ok(RigidSolve { u, omega, fields })
     }

@@ -7,6 +7,7 @@
 use crate::fem::linsolve::SolverKind;
 use crate::mesh::{Axis, Mesh, Side};
 use crate::particles::{correct, find_contact, predict, Contact, RigidState, CONTACT_OVERLAP};
+use crate::rheology::Sym2;
 use crate::solver::cutcells::{compute_cuts, CutError};
 use crate::solver::rigid::{Motion, Particle};
 use crate::solver::stokes::{Stokes, StokesParams};
@@ -50,6 +51,8 @@ pub struct FlowFields {
     pub p: Vec<f64>,
     /// Particles (centres wrapped into the period) of that solve.
     pub particles: Vec<Particle>,
+    /// Polymer stress τ at the Q1 vertices (viscoelastic runs; empty for a Newtonian fluid).
+    pub tau: Vec<Sym2>,
 }
 
 /// Rigid velocities of free particles at one configuration, with the flow that produced them.
@@ -157,6 +160,7 @@ impl ShearCase {
             u: sol.u,
             p: sol.p,
             particles,
+            tau: Vec::new(),
         };
         Ok(RigidSolve {
             u,

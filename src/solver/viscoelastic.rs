@@ -970,6 +970,16 @@ impl ViscoelasticFlow {
         &self.conformation
     }
 
+    /// Polymer stress τ = G(c − I) of the projected conformation cⁿ at the Q1 vertices (inside a
+    /// particle: of its extension).
+    pub fn polymer_stress(&self) -> Vec<Sym2> {
+        let polymer = self.fluid.polymer();
+        self.conformation
+            .iter()
+            .map(|&c| polymer.stress(c))
+            .collect()
+    }
+
     /// Domain mean of the polymer stress τ = G(c − I) (the mean of Π exp(s) equals that of
     /// exp(s_h): constants are Q1 test functions).
     pub fn mean_polymer_stress(&self) -> Sym2 {

@@ -13,6 +13,7 @@ use crate::fem::element::{q1, Q2_NODES};
 use crate::mesh::{Axis, Mesh};
 use crate::observe::{CaseObserver, Control, FieldSnapshot, NodalField, ParticleState, Sample};
 use crate::particles::RigidState;
+use crate::rheology::Sym2;
 use crate::solver::ale::Remap;
 use crate::solver::constitutive_stress::Coupling;
 use crate::solver::couette::CouetteGeometry;
@@ -140,9 +141,13 @@ fn sample(step: u64, t: f64, s: &RigidState, frame: Frame) -> Sample {
     }
 }
 
+/// The polymer-stress fields of a snapshot: tr τ and the components (xx, xy, yy).
+const STRESS_FIELDS: [&str; 4] = ["tr_tau", "tau_xx", "tau_xy", "tau_yy"];
+
 /// Field snapshot on the Q2 nodes (each element drawn as 4 sub-quadrilaterals; the periodic seam
-/// gets its own column of nodes so that no quad spans the domain): velocity, pressure
-/// (interpolated bilinearly from the Q1 vertices) and the particles' level set.
+/// gets its own column of nodes so that no quad spans the domain): velocity, pressure and, for a
+/// viscoelastic fluid, the polymer stress ([`STRESS_FIELDS`]; both interpolated bilinearly from
+/// the Q1 vertices), and the particles' level set.
 fn snapshot(step: u64, t: f64, mesh: &Mesh, f: &FlowFields, period: Option<f64>) -> FieldSnapshot {
     let (nx, ny) = mesh.dims();
     let cols = 2 * nx + 1;
@@ -150,10 +155,12 @@ fn snapshot(step: u64, t: f64, mesh: &Mesh, f: &FlowFields, period: Option<f64>)
     let mut coords = vec![[0.0; 2]; n];
     let mut u = vec![0.0; 2 * n];
     let mut p = vec![0.0; n];
+    let with_stress = !f.tau.is_empty();
+    let mut stress = vec![vec![0.0; if with_stress { n } else { 0 }]; STRESS_FIELDS.len()];
     let mut quads = Vec::with_capacity(4 * nx * ny);
     for e in 0..mesh.n_elements() {
         let (ex, ey) = (e % nx, e / nx);
-        let pv: Vec<f64> = mesh.element_vertices[e].iter().map(|&v| f.p[v]).collect();
+        let vs = mesh.element_vertices[e];
         for b in 0..3 {
             for a in 0..3 {
                 let id = (2 * ex + a) + cols * (2 * ey + b);
@@ -163,7 +170,16 @@ fn snapshot(step: u64, t: f64, mesh: &Mesh, f: &FlowFields, period: Option<f64>)
                 u[2 * id] = f.u[node][0];
                 u[2 * id + 1] = f.u[node][1];
                 let psi = q1(Q2_NODES[k]).0;
-                p[id] = (0..4).map(|m| psi[m] * pv[m]).sum();
+                p[id] = (0..4).map(|m| psi[m] * f.p[vs[m]]).sum();
+                if with_stress {
+                    let tau = (0..4).fold(Sym2::new(0.0, 0.0, 0.0), |acc, m| {
+                        acc + psi[m] * f.tau[vs[m]]
+                    });
+                    let values = [tau.xx + tau.yy, tau.xx, tau.xy, tau.yy];
+                    for (field, v) in stress.iter_mut().zip(values) {
+                        field[id] = v;
+                    }
+                }
             }
         }
         for (a, b) in [(0, 0), (1, 0), (0, 1), (1, 1)] {
@@ -183,6 +199,15 @@ fn snapshot(step: u64, t: f64, mesh: &Mesh, f: &FlowFields, period: Option<f64>)
             values: p,
         },
     ];
+    if with_stress {
+        for (name, values) in STRESS_FIELDS.iter().zip(stress) {
+            fields.push(NodalField {
+                name: (*name).into(),
+                components: 1,
+                values,
+            });
+        }
+    }
     if let Ok(ls) = level_set(&f.particles, period) {
         fields.push(NodalField {
             name: "level_set".into(),
@@ -199,12 +224,33 @@ fn snapshot(step: u64, t: f64, mesh: &Mesh, f: &FlowFields, period: Option<f64>)
     }
 }
 
-/// A snapshot of the solver's frame moved into the lab frame (node positions and velocity).
+/// A snapshot of the solver's frame moved into the lab frame (node positions, velocity and the
+/// polymer stress's components).
 fn in_lab(mut snap: FieldSnapshot, frame: Frame) -> FieldSnapshot {
     if frame == Frame::LAB {
         return snap;
     }
     let t = snap.t;
+    if let Frame::Rotating(w) = frame {
+        // τ_lab = R τ Rᵀ with R the rotation by ωt (tr τ is invariant)
+        let (s, c) = (w * t).sin_cos();
+        let at: Vec<Option<usize>> = STRESS_FIELDS[1..]
+            .iter()
+            .map(|name| snap.fields.iter().position(|f| f.name == *name))
+            .collect();
+        if let [Some(ixx), Some(ixy), Some(iyy)] = at[..] {
+            for k in 0..snap.coords.len() {
+                let (xx, xy, yy) = (
+                    snap.fields[ixx].values[k],
+                    snap.fields[ixy].values[k],
+                    snap.fields[iyy].values[k],
+                );
+                snap.fields[ixx].values[k] = c * c * xx - 2.0 * s * c * xy + s * s * yy;
+                snap.fields[ixy].values[k] = s * c * (xx - yy) + (c * c - s * s) * xy;
+                snap.fields[iyy].values[k] = s * s * xx + 2.0 * s * c * xy + c * c * yy;
+            }
+        }
+    }
     let u = snap.fields.iter_mut().find(|f| f.name == "u");
     let mut u = u.map(|f| &mut f.values);
     for (k, c) in snap.coords.iter_mut().enumerate() {
@@ -376,6 +422,7 @@ fn run_moving<D: Domain>(
     let fields = |sim: &MovingParticles<D>| FlowFields {
         u: sim.flow().velocity().to_vec(),
         p: sim.flow().pressure().to_vec(),
+        tau: sim.flow().polymer_stress(),
         particles: sim
             .state()
             .x
@@ -447,4 +494,49 @@ fn case_result(end: Result<(), String>, steps: u64, t: f64) -> CaseResult {
         Err(reason) => RunStatus::Diverged { reason },
     };
     CaseResult { status, steps, t }
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    /// τ = e_x ⊗ e_x in a frame rotated by ωt = π/4 is ((1, 1), (1, 1))/2 in the lab (R τ Rᵀ
+    /// with the rotation `to_lab` applies to positions); tr τ is unchanged.
+    #[test]
+    fn the_stress_of_a_rotating_frame_is_rotated_into_the_lab() {
+        let scalar = |name: &str, v: f64| NodalField {
+            name: name.into(),
+            components: 1,
+            values: vec![v],
+        };
+        let snap = FieldSnapshot {
+            step: 1,
+            t: 1.0,
+            coords: vec![[1.0, 0.0]],
+            quads: Vec::new(),
+            fields: vec![
+                scalar("tr_tau", 1.0),
+                scalar("tau_xx", 1.0),
+                scalar("tau_xy", 0.0),
+                scalar("tau_yy", 0.0),
+            ],
+        };
+        let lab = in_lab(snap, Frame::Rotating(std::f64::consts::FRAC_PI_4));
+        let value = |name: &str| lab.fields.iter().find(|f| f.name == name).unwrap().values[0];
+        for (name, expected) in [
+            ("tr_tau", 1.0),
+            ("tau_xx", 0.5),
+            ("tau_xy", 0.5),
+            ("tau_yy", 0.5),
+        ] {
+            assert!(
+                (value(name) - expected).abs() < 1e-15,
+                "{name} = {}",
+                value(name)
+            );
+        }
+        // the node itself went the same way: (1, 0) → (1, 1)/√2
+        let s = std::f64::consts::FRAC_1_SQRT_2;
+        assert!((lab.coords[0][0] - s).abs() < 1e-15 && (lab.coords[0][1] - s).abs() < 1e-15);
+    }
 }
