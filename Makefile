@@ -29,7 +29,7 @@ lint: deps
 	$(CARGO) fmt --all -- --check
 	$(CARGO) clippy $(PROFILE) --all-targets -- -D warnings
 
-# A small real sweep: two particles in confined Stokes shear flow (sweeps/demo.toml), its results
+# A small real sweep: two particles in confined shear flow, Newtonian and Giesekus (sweeps/demo.toml), its results
 # database (results/demo.db, resumable: a rerun skips finished cases), its table and its figures.
 demo: build figures-deps
 	$(BIN) sweep sweeps/demo.toml --db results/demo.db
