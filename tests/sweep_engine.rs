@@ -248,6 +248,16 @@ fn kill_minus_9_then_resume() {
         "{}",
         done_before.len()
     );
+    // `query cases` tells the killed sweep's in-flight cases from running ones
+    let listed = store.query(&QueryKind::Cases, None, &[]).unwrap();
+    let interrupted: BTreeSet<String> = listed
+        .rows
+        .iter()
+        .filter(|r| r[2] == "interrupted")
+        .map(|r| r[0].as_str().unwrap().to_string())
+        .collect();
+    assert_eq!(interrupted, running_before);
+    assert!(listed.rows.iter().all(|r| r[2] != "running"));
     let finished_at_before: Vec<String> = {
         let mut st = store
             .connection()

@@ -84,7 +84,7 @@ fn sample_rows(conn: &rusqlite::Connection, case_id: i64, step: u64) -> rusqlite
 
 /// Whether the process that claimed a case (`owner` = `host:pid`, `pid`) is alive: `None` when it
 /// ran on another host (cannot tell), `Some(false)` without a pid.
-fn owner_alive(owner: Option<&str>, pid: Option<i64>, host: &str) -> Option<bool> {
+pub(super) fn owner_alive(owner: Option<&str>, pid: Option<i64>, host: &str) -> Option<bool> {
     let same_host = owner.is_some_and(|o| o.rsplit_once(':').is_some_and(|(h, _)| h == host));
     match (same_host, pid) {
         (true, Some(pid)) => Some(pid_alive(pid)),

@@ -210,8 +210,21 @@ impl Store {
             QueryKind::Cases => {
                 let sql = format!(
                     "SELECT c.case_hash, c.label, c.status, c.kind, c.string_length, c.t_decided, c.mean_gap, c.wall_s,
-                            c.error FROM case_outcomes c{cond} ORDER BY c.id"
+                            c.error, c.owner, c.owner_pid FROM case_outcomes c{cond} ORDER BY c.id"
                 );
+                let host = super::hostname();
+                let mut rows = self.rows(&sql, &args)?;
+                for r in &mut rows {
+                    let pid = r.pop().and_then(|v| v.as_i64());
+                    let owner = r.pop();
+                    let owner = owner.as_ref().and_then(Value::as_str);
+                    // a case `running` in the database whose process is gone was interrupted
+                    if r[2] == "running"
+                        && super::cases::owner_alive(owner, pid, &host) == Some(false)
+                    {
+                        r[2] = json!("interrupted");
+                    }
+                }
                 let cols = [
                     "case",
                     "label",
@@ -225,7 +238,7 @@ impl Store {
                 ];
                 Ok(Table {
                     columns: cols.iter().map(|c| c.to_string()).collect(),
-                    rows: self.rows(&sql, &args)?,
+                    rows,
                 })
             }
             QueryKind::Final => {
