@@ -5,8 +5,8 @@ Each page shows up to four snapshots of one case, evenly spread over its recorde
 contours of tr τ (one colour scale per page), the mesh (Q1 vertices of the elements, thin lines), the
 particles as circles of radius a at their sampled positions (nearest sample in time) and the zero level set
 (dashed) when the file has one. Skipped, with a message, when the database records no snapshot or the
-HDF5 file cannot be found (looked for at the recorded path, next to the database and in
-`<db dir>/<sweep name>/`).
+HDF5 file cannot be found (looked for at the recorded path, next to the database, in
+`<db dir>/<sweep name>/` and in `<db dir>/<db name>/`, for a database renamed with its directory).
 
 Inputs: snapshots (case_id, step, t, file) ⋈ cases; HDF5 groups /step_<n> with coords, quads, tr_tau,
 level_set (src/store/snapshot.rs); samples (x, y) for the particle positions.
@@ -40,6 +40,8 @@ def resolve(f: fl.Figures, c: fl.Case, recorded: str) -> str | None:
     base = os.path.basename(recorded)
     candidates = [recorded, os.path.join(db_dir, recorded), os.path.join(db_dir, base)]
     candidates += [os.path.join(db_dir, s.strip(), base) for s in c.sweeps.split(",") if s.strip()]
+    # a database renamed together with its directory (results/NAME.db, results/NAME/)
+    candidates.append(os.path.join(db_dir, os.path.splitext(os.path.basename(f.db))[0], base))
     return next((p for p in candidates if os.path.isfile(p)), None)
 
 
