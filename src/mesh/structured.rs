@@ -70,6 +70,25 @@ impl Mesh {
         Self::build(Shape::Annulus, at, ar, true)
     }
 
+    /// The same mesh (shape, topology, numbering) on other axes: the vertex columns and rows
+    /// moved, e.g. a grading that follows the particles.
+    ///
+    /// # Panics
+    /// If the element counts differ, or on a periodic axis the period does.
+    pub fn with_axes(&self, ax: Axis, ay: Axis) -> Self {
+        assert_eq!(
+            (ax.len(), ay.len()),
+            self.dims(),
+            "Mesh::with_axes: other element counts"
+        );
+        let span = |a: &Axis| a.vertices[a.len()] - a.vertices[0];
+        assert!(
+            !self.periodic || (span(&ax) - span(&self.ax)).abs() <= 1e-12 * span(&self.ax),
+            "Mesh::with_axes: other period"
+        );
+        Self::build(self.shape, ax, ay, self.periodic)
+    }
+
     fn build(shape: Shape, ax: Axis, ay: Axis, periodic: bool) -> Self {
         let (nx, ny) = (ax.len(), ay.len());
         let n_node_cols = if periodic { 2 * nx } else { 2 * nx + 1 };
@@ -523,6 +542,35 @@ pub(crate) fn invert_q2_map(xe: &[[f64; 2]; 9], x: [f64; 2], guess: [f64; 2]) ->
 mod tests {
     use super::*;
     use crate::fem::quadrature::gauss_quad;
+
+    /// A mesh on moved axes is the mesh built there: same numbering, new coordinates; the
+    /// period must stay.
+    #[test]
+    fn a_mesh_on_other_axes_is_the_mesh_built_there() {
+        let base = Mesh::rectangle(
+            Axis::uniform(-1.0, 1.0, 8),
+            Axis::uniform(-0.5, 0.5, 4),
+            true,
+        );
+        let (ax, ay) = (
+            Axis::centred(-0.9, 1.1, 8, 2.0),
+            Axis::centred(-0.5, 0.5, 4, 1.5),
+        );
+        let moved = base.with_axes(ax.clone(), ay.clone());
+        let built = Mesh::rectangle(ax, ay, true);
+        assert_eq!(moved.nodes, built.nodes);
+        assert_eq!(moved.element_coords, built.element_coords);
+        assert_eq!(moved.elements, base.elements);
+        assert_eq!(moved.element_vertices, base.element_vertices);
+        let annulus = Mesh::annulus(12, Axis::uniform(1.0, 2.0, 3));
+        let r = Axis::centred(1.0, 2.0, 3, 2.0);
+        let graded = annulus.with_axes(annulus.ax.clone(), r.clone());
+        assert_eq!(graded.nodes, Mesh::annulus(12, r).nodes);
+        let longer = std::panic::catch_unwind(|| {
+            base.with_axes(Axis::uniform(-1.0, 1.5, 8), Axis::uniform(-0.5, 0.5, 4))
+        });
+        assert!(longer.is_err(), "another period");
+    }
 
     fn area(mesh: &Mesh) -> f64 {
         let rule = gauss_quad(3);

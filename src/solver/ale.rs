@@ -17,7 +17,7 @@
 use crate::fem::element::{q1, q2_map, Q1_IN_Q2};
 use crate::fem::linsolve::{DirectSolver, SolveError, SolverKind};
 use crate::fem::sparse::{q1_pattern, SparseMatrix};
-use crate::mesh::{Mesh, Shape, Side};
+use crate::mesh::{Axis, Mesh, Shape, Side};
 use crate::solver::viscoelastic::{StencilWeights, STENCIL_LEN};
 
 /// Newton tolerance of the point location, in reference coordinates. Round-off limits ξ to about
@@ -116,12 +116,16 @@ pub struct AleMap {
 pub struct TemporaryAle {
     /// Element stiffness of −∇² for the Q1 vertices (4×4, row-major).
     element_k: Vec<[f64; 16]>,
+    /// The axes of the mesh `element_k` belongs to.
+    k_axes: (Axis, Axis),
     matrix: SparseMatrix,
     solver: Option<DirectSolver>,
     /// Vertices on walls (d = 0).
     wall: Vec<bool>,
     /// d_m^n of the previous step.
     previous: Option<Vec<[f64; 2]>>,
+    /// The axes of the mesh `previous` was solved on (the mesh of s^{n−1}).
+    previous_axes: Option<(Axis, Axis)>,
     /// Interpolation of the history at the pre-images.
     pub remap: Remap,
 }
@@ -138,40 +142,7 @@ impl TemporaryAle {
     /// Assembles the element matrices of the mesh Laplacian (2×2 Gauss on the bilinear map of
     /// the element corners: a smoothing operator, exactness is not needed).
     pub fn new(mesh: &Mesh) -> Self {
-        let g = 1.0 / 3f64.sqrt();
-        let element_k = mesh
-            .element_coords
-            .iter()
-            .map(|xe| {
-                let c = Q1_IN_Q2.map(|k| xe[k]);
-                let mut k = [0.0; 16];
-                for xi in [[-g, -g], [g, -g], [-g, g], [g, g]] {
-                    let (_, dref) = q1(xi);
-                    let mut jac = [[0.0; 2]; 2];
-                    for a in 0..4 {
-                        for i in 0..2 {
-                            for d in 0..2 {
-                                jac[i][d] += dref[a][d] * c[a][i];
-                            }
-                        }
-                    }
-                    let det = jac[0][0] * jac[1][1] - jac[0][1] * jac[1][0];
-                    let grad = dref.map(|r| {
-                        [
-                            (jac[1][1] * r[0] - jac[1][0] * r[1]) / det,
-                            (-jac[0][1] * r[0] + jac[0][0] * r[1]) / det,
-                        ]
-                    });
-                    for a in 0..4 {
-                        for b in 0..4 {
-                            k[4 * a + b] +=
-                                det * (grad[a][0] * grad[b][0] + grad[a][1] * grad[b][1]);
-                        }
-                    }
-                }
-                k
-            })
-            .collect();
+        let element_k = laplace_elements(mesh);
         let mut wall = vec![false; mesh.n_vertices()];
         let mut sides = vec![Side::Bottom, Side::Top];
         if !mesh.periodic {
@@ -186,10 +157,12 @@ impl TemporaryAle {
         }
         Self {
             element_k,
+            k_axes: (mesh.ax.clone(), mesh.ay.clone()),
             matrix: q1_pattern(mesh.n_vertices(), &mesh.element_vertices),
             solver: None,
             wall,
             previous: None,
+            previous_axes: None,
             remap: Remap::default(),
         }
     }
@@ -197,6 +170,7 @@ impl TemporaryAle {
     /// Forgets the previous displacement: the next step is first order (after a restart).
     pub fn reset(&mut self) {
         self.previous = None;
+        self.previous_axes = None;
     }
 
     /// The mesh displacement d_m for the given moves (Eqs. 5.35–5.38).
@@ -212,6 +186,11 @@ impl TemporaryAle {
         let nv = mesh.n_vertices();
         if moves.iter().all(|m| m.displacement == [0.0, 0.0]) {
             return Ok(vec![[0.0; 2]; nv]);
+        }
+        if (&mesh.ax, &mesh.ay) != (&self.k_axes.0, &self.k_axes.1) {
+            // a mesh with moved columns or rows: same pattern, new element matrices
+            self.element_k = laplace_elements(mesh);
+            self.k_axes = (mesh.ax.clone(), mesh.ay.clone());
         }
         // rigid patches: the nearest particle claims a vertex; walls win
         let mut claim: Vec<Option<(f64, [f64; 2])>> = vec![None; nv];
@@ -304,6 +283,7 @@ impl TemporaryAle {
                 });
             }
         }
+        self.previous_axes = d.as_ref().map(|_| (mesh.ax.clone(), mesh.ay.clone()));
         self.previous = d;
         Ok(())
     }
@@ -322,31 +302,65 @@ impl TemporaryAle {
         dt: f64,
         first_order: bool,
     ) -> Result<AleMap, AleError> {
-        let d_new = self.displacement(mesh, moves, period)?;
+        self.advance_onto(mesh, mesh, moves, period, dt, first_order)
+    }
+
+    /// [`advance`](Self::advance) onto a computational mesh `new` whose vertex columns and rows
+    /// may have moved (same topology): the displacement is solved on `old`, the mesh of sⁿ (the
+    /// particles' tⁿ configuration), the pre-images of `new`'s nodes are located in `old` and
+    /// interpolated there, and those of the second pre-image in the mesh of the previous call's
+    /// `old` (the mesh of s^{n−1}). The ALE map does not depend on the computational mesh
+    /// (thesis §3.3.4): with `new == old` this is [`advance`](Self::advance).
+    ///
+    /// # Errors
+    /// [`AleError`] if the solve fails or a pre-image is not found.
+    ///
+    /// # Panics
+    /// If the meshes differ in topology.
+    pub fn advance_onto(
+        &mut self,
+        old: &Mesh,
+        new: &Mesh,
+        moves: &[RigidMove],
+        period: Option<f64>,
+        dt: f64,
+        first_order: bool,
+    ) -> Result<AleMap, AleError> {
+        assert!(
+            old.dims() == new.dims() && old.periodic == new.periodic && old.shape == new.shape,
+            "TemporaryAle::advance_onto: meshes of different topology"
+        );
+        let d_new = self.displacement(old, moves, period)?;
+        let previous_axes = self.previous_axes.take();
         let d_old = if first_order {
             None
         } else {
             self.previous.take()
         };
-        let nn = mesh.n_nodes();
-        let mut at_n = vec![([0; STENCIL_LEN], [0.0; STENCIL_LEN]); mesh.n_vertices()];
+        // the mesh of s^{n−1}: `old` unless its columns or rows have moved since
+        let moved = previous_axes
+            .filter(|(ax, ay)| (ax, ay) != (&old.ax, &old.ay))
+            .map(|(ax, ay)| old.with_axes(ax, ay));
+        let older = moved.as_ref().unwrap_or(old);
+        let nn = new.n_nodes();
+        let mut at_n = vec![([0; STENCIL_LEN], [0.0; STENCIL_LEN]); new.n_vertices()];
         let mut at_nm1 = d_old
             .as_ref()
-            .map(|_| vec![([0; STENCIL_LEN], [0.0; STENCIL_LEN]); mesh.n_vertices()]);
+            .map(|_| vec![([0; STENCIL_LEN], [0.0; STENCIL_LEN]); new.n_vertices()]);
         let mut mesh_velocity = vec![[0.0; 2]; nn];
         for k in 0..nn {
-            let x = mesh.nodes[k];
-            let (e1, xi1, xn) = pre_image(mesh, &d_new, x, period)?;
-            let v = mesh.vertex_of_node[k];
+            let x = new.nodes[k];
+            let (e1, xi1, xn) = pre_image(old, &d_new, x, period)?;
+            let v = new.vertex_of_node[k];
             if let Some(v) = v {
-                at_n[v] = stencil(mesh, e1, xi1, self.remap);
+                at_n[v] = stencil(old, e1, xi1, self.remap);
             }
             let u = match &d_old {
                 None => [(x[0] - xn[0]) / dt, (x[1] - xn[1]) / dt],
                 Some(d_old) => {
-                    let (e2, xi2, xnm1) = pre_image(mesh, d_old, xn, period)?;
+                    let (e2, xi2, xnm1) = pre_image(older, d_old, xn, period)?;
                     if let (Some(v), Some(at)) = (v, at_nm1.as_mut()) {
-                        at[v] = stencil(mesh, e2, xi2, self.remap);
+                        at[v] = stencil(older, e2, xi2, self.remap);
                     }
                     let xnm1 = nearest_image(xnm1, xn, period);
                     [
@@ -357,6 +371,7 @@ impl TemporaryAle {
             };
             mesh_velocity[k] = u;
         }
+        self.previous_axes = Some((old.ax.clone(), old.ay.clone()));
         // a first-order step too leaves d^{n+1} for the next step's second pre-image
         self.previous = Some(d_new.clone());
         Ok(AleMap {
@@ -453,6 +468,43 @@ where
             known[v] = true;
         }
     }
+}
+
+/// Element matrices of the mesh Laplacian for the Q1 vertices (2×2 Gauss on the bilinear map
+/// of the element corners: a smoothing operator, exactness is not needed).
+fn laplace_elements(mesh: &Mesh) -> Vec<[f64; 16]> {
+    let g = 1.0 / 3f64.sqrt();
+    mesh.element_coords
+        .iter()
+        .map(|xe| {
+            let c = Q1_IN_Q2.map(|k| xe[k]);
+            let mut k = [0.0; 16];
+            for xi in [[-g, -g], [g, -g], [-g, g], [g, g]] {
+                let (_, dref) = q1(xi);
+                let mut jac = [[0.0; 2]; 2];
+                for a in 0..4 {
+                    for i in 0..2 {
+                        for d in 0..2 {
+                            jac[i][d] += dref[a][d] * c[a][i];
+                        }
+                    }
+                }
+                let det = jac[0][0] * jac[1][1] - jac[0][1] * jac[1][0];
+                let grad = dref.map(|r| {
+                    [
+                        (jac[1][1] * r[0] - jac[1][0] * r[1]) / det,
+                        (-jac[0][1] * r[0] + jac[0][0] * r[1]) / det,
+                    ]
+                });
+                for a in 0..4 {
+                    for b in 0..4 {
+                        k[4 * a + b] += det * (grad[a][0] * grad[b][0] + grad[a][1] * grad[b][1]);
+                    }
+                }
+            }
+            k
+        })
+        .collect()
 }
 
 /// Interpolation weights of a vertex field at reference point `xi` of element `e`.
@@ -934,6 +986,129 @@ mod tests {
             0.3 + 2.0 * p[1] - p[1] * p[1] + 0.7 * p[0] * p[0] + 0.4 * p[0] * p[1]
                 - 1.3 * p[0] * p[0] * p[1] * p[1]
         });
+    }
+
+    fn bicubic_field(p: [f64; 2]) -> f64 {
+        let (x, y) = (p[0], p[1]);
+        0.3 + 2.0 * y - y * y + 0.9 * y * y * y + 0.7 * x * x - 0.5 * x * x * x + 0.4 * x * y
+            - 1.3 * x * x * y * y * y
+            + 0.8 * x * x * x * y * y * y
+    }
+
+    /// A computational mesh moved by exactly one element column, without particle motion: every
+    /// new vertex is an old vertex (the next column), so the history is relabelled exactly
+    /// (Kronecker weights) and the mesh velocity is zero.
+    #[test]
+    fn a_mesh_moved_by_one_column_relabels_the_history_exactly() {
+        let old = channel();
+        let h = old.ax.vertices[1] - old.ax.vertices[0];
+        let shifted = Axis {
+            vertices: old.ax.vertices.iter().map(|x| x + h).collect(),
+        };
+        let new = old.with_axes(shifted, old.ay.clone());
+        let mut ale = TemporaryAle::new(&old);
+        ale.remap = Remap::Cubic;
+        let still = one_move([0.0, 0.05], [0.0, 0.0]);
+        let m = ale
+            .advance_onto(&old, &new, &still, Some(2.0), 0.1, true)
+            .unwrap();
+        let (nx, _) = old.dims();
+        for (v, (vs, w)) in m.at_n.iter().enumerate() {
+            let (i, j) = (v % nx, v / nx);
+            let next = ((i + 1) % nx) + nx * j;
+            let weight_there: f64 = (0..STENCIL_LEN)
+                .filter(|&a| vs[a] == next)
+                .map(|a| w[a])
+                .sum();
+            assert!(
+                (weight_there - 1.0).abs() < 1e-12,
+                "vertex {v}: {weight_there}"
+            );
+        }
+        assert!(m.mesh_velocity.iter().flatten().all(|u| u.abs() < 1e-9));
+    }
+
+    /// The Laplace problem follows the mesh it is solved on: after a solve on one mesh, a solve
+    /// on a mesh with moved columns and rows equals that of a fresh solver built there.
+    #[test]
+    fn the_displacement_is_solved_on_the_mesh_given() {
+        let (m0, m1) = (channel(), graded_channel());
+        let moves = one_move([0.0, 0.05], [0.013, -0.007]);
+        let mut reused = TemporaryAle::new(&m0);
+        let on_m0 = reused.displacement(&m0, &moves, Some(2.0)).unwrap();
+        let on_m1 = reused.displacement(&m1, &moves, Some(2.0)).unwrap();
+        let fresh = TemporaryAle::new(&m1)
+            .displacement(&m1, &moves, Some(2.0))
+            .unwrap();
+        assert_eq!(on_m1, fresh);
+        assert_ne!(on_m0, on_m1, "the graded mesh has another Laplacian");
+    }
+
+    /// Onto a moved (graded) mesh, with a particle moving: the remap interpolates on the mesh of
+    /// sⁿ and reproduces a bicubic field at the pre-images of the new mesh's vertices; a second
+    /// step onto a third mesh locates x^{n−1} in the first mesh (the mesh of s^{n−1}) and
+    /// reproduces the field there too.
+    #[test]
+    fn pre_images_of_a_moved_mesh_are_interpolated_on_the_meshes_of_the_history() {
+        let m0 = channel();
+        let m1 = graded_channel();
+        let m2 = m0.with_axes(
+            Axis::centred(-1.0, 1.0, 20, 2.0),
+            Axis::centred(-0.5, 0.5, 10, 1.5),
+        );
+        let mut ale = TemporaryAle::new(&m0);
+        ale.remap = Remap::Cubic;
+        let (dt, period) = (0.1, Some(2.0));
+        let field = |mesh: &Mesh| -> Vec<f64> {
+            mesh.node_of_vertex
+                .iter()
+                .map(|&k| bicubic_field(mesh.nodes[k]))
+                .collect()
+        };
+        let check = |at: &[StencilWeights], on: &Mesh, v: usize, xp: [f64; 2]| {
+            let f = field(on);
+            let (vs, w) = at[v];
+            let g: f64 = (0..STENCIL_LEN).map(|a| f[vs[a]] * w[a]).sum();
+            assert!(
+                (g - bicubic_field(xp)).abs() < LOCATE_TOL,
+                "{g} vs {} at {xp:?}",
+                bicubic_field(xp)
+            );
+        };
+        // step 1: s⁰ on m0, onto m1
+        let moves = one_move([0.0, 0.05], [0.013, -0.007]);
+        let a = ale
+            .advance_onto(&m0, &m1, &moves, period, dt, true)
+            .unwrap();
+        let mut checked = 0;
+        for (v, &k) in m1.node_of_vertex.iter().enumerate() {
+            let x = m1.nodes[k];
+            if x[0].abs() > 0.7 {
+                continue; // the field is not periodic
+            }
+            let (_, _, xn) = pre_image(&m0, &a.displacement, x, period).unwrap();
+            check(&a.at_n, &m0, v, xn);
+            checked += 1;
+        }
+        assert!(checked > 100);
+        // step 2: s¹ on m1 (s⁰ on m0), onto m2; the particle moved on
+        let moves = one_move([0.013, 0.043], [0.011, -0.006]);
+        let b = ale
+            .advance_onto(&m1, &m2, &moves, period, dt, false)
+            .unwrap();
+        let at_nm1 = b.at_n_minus_1.as_ref().expect("second-order step");
+        for (v, &k) in m2.node_of_vertex.iter().enumerate() {
+            let x = m2.nodes[k];
+            if x[0].abs() > 0.7 {
+                continue;
+            }
+            let (_, _, xn) = pre_image(&m1, &b.displacement, x, period).unwrap();
+            check(&b.at_n, &m1, v, xn);
+            // x^{n−1} from the BDF2 mesh velocity: u = (1.5 x − 2 xⁿ + 0.5 x^{n−1})/Δt
+            let u = b.mesh_velocity[k];
+            let xnm1 = [0, 1].map(|c| 2.0 * (u[c] * dt - 1.5 * x[c] + 2.0 * xn[c]));
+            check(at_nm1, &m0, v, xnm1);
+        }
     }
 
     #[test]
