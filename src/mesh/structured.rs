@@ -74,8 +74,13 @@ impl Mesh {
     /// moved, e.g. a grading that follows the particles.
     ///
     /// # Panics
-    /// If the element counts differ, or on a periodic axis the period does.
+    /// If the element counts differ, on a periodic axis the period does, or an annulus' θ axis
+    /// does not start at 0 (its point location wraps θ into [0, 2π)).
     pub fn with_axes(&self, ax: Axis, ay: Axis) -> Self {
+        assert!(
+            self.shape != Shape::Annulus || ax.vertices[0] == 0.0,
+            "Mesh::with_axes: an annulus' θ axis starts at 0"
+        );
         assert_eq!(
             (ax.len(), ay.len()),
             self.dims(),
