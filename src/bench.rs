@@ -190,11 +190,7 @@ pub fn moving(
     use crate::solver::moving::{MovingError, MovingParticles, ShearDomain};
     use crate::solver::viscoelastic::ViscoelasticParams;
     let (h, l, a) = (1.0, 4.0, 0.1);
-    let mesh = Mesh::rectangle(
-        Axis::uniform(-0.5 * l, 0.5 * l, nx),
-        Axis::uniform(-0.5 * h, 0.5 * h, ny),
-        true,
-    );
+    let mesh = crate::solver::motion::channel_mesh(h, l, [nx, ny], 1.0, 1.0);
     let spacing = if n <= 7 { 0.5 } else { l / n as f64 };
     let x0: Vec<[f64; 2]> = (0..n)
         .map(|i| {

@@ -18,7 +18,7 @@ use crate::solver::ale::Remap;
 use crate::solver::constitutive_stress::Coupling;
 use crate::solver::couette::CouetteGeometry;
 use crate::solver::cutcells::level_set;
-use crate::solver::motion::{FlowFields, MotionEnd, ShearCase};
+use crate::solver::motion::{channel_mesh, FlowFields, MotionEnd, ShearCase};
 use crate::solver::moving::{
     Domain, MovingCheckpoint, MovingEnd, MovingParticles, RotatingCouette, ShearDomain,
 };
@@ -286,12 +286,8 @@ impl CaseRunner for SolverRunner {
         let viscoelastic = case.relaxation_time() > 0.0;
         match case.geometry {
             Geometry::ConfinedShear { h, l, wall_speed } if viscoelastic => {
-                let [nx, ny] = case.numerics.mesh;
-                let mesh = Mesh::rectangle(
-                    Axis::centred(-0.5 * l, 0.5 * l, nx, case.numerics.grading_x),
-                    Axis::centred(-0.5 * h, 0.5 * h, ny, case.numerics.grading),
-                    true,
-                );
+                let n = &case.numerics;
+                let mesh = channel_mesh(h, l, n.mesh, n.grading, n.grading_x);
                 // a frame translating at U_f: walls at −U_f ± U_w/2
                 let domain = ShearDomain {
                     h,
