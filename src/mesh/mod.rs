@@ -1,7 +1,9 @@
 //! Structured quadrilateral meshes with Q2 nodes (rectangle, annulus), graded spacing, periodicity.
 
 pub mod axis;
+pub mod follow;
 pub mod structured;
 
 pub use axis::Axis;
+pub use follow::{follow_axis, Follow, FollowError};
 pub use structured::{Mesh, Shape, Side};
