@@ -103,8 +103,9 @@ fn couette_particle_at_vanishing_wi_follows_the_stokes_run() {
 /// unmapped sⁿ all in play.
 #[test]
 fn a_restored_run_continues_the_saved_one() {
+    use xpflow::mesh::follow::Follow;
     use xpflow::mesh::{Axis, Mesh};
-    use xpflow::solver::moving::{MovingCheckpoint, ShearDomain};
+    use xpflow::solver::moving::{FollowingMesh, MovingCheckpoint, ShearDomain};
     // The restored flow pattern is built around the current positions rather than where the
     // saved run last rebuilt it, which may reorder the factorization: round-off only.
     const RESTORE_TOL: f64 = 1e-10;
@@ -116,7 +117,18 @@ fn a_restored_run_continues_the_saved_one() {
         drift: 0.0,
     };
     let x0 = vec![[-0.25, 0.06], [0.25, -0.06]];
-    for coupling in [Coupling::Explicit, Coupling::SemiImplicit] {
+    // the fixed mesh with both couplings, and a mesh that follows the particles (the ALE
+    // displacement of the last step then lives on another mesh than the fields)
+    let follow = Follow {
+        ratio: 2.0,
+        core: 0.12,
+        reach: 0.6,
+    };
+    for (coupling, follows) in [
+        (Coupling::Explicit, false),
+        (Coupling::SemiImplicit, false),
+        (Coupling::Explicit, true),
+    ] {
         let setup = || {
             let mesh = Mesh::rectangle(
                 Axis::uniform(-1.0, 1.0, 40),
@@ -125,8 +137,26 @@ fn a_restored_run_continues_the_saved_one() {
             );
             let mut params = ViscoelasticParams::new(0.1, 0.9, 1.0, 0.01, dt, 1.0);
             params.coupling = coupling;
-            MovingParticles::free(mesh, params, domain, x0.clone(), 0.1, CutOptions::default())
+            if follows {
+                let f = FollowingMesh {
+                    base: mesh,
+                    x: follow,
+                    y: follow,
+                };
+                MovingParticles::following(
+                    f,
+                    params,
+                    domain,
+                    x0.clone(),
+                    vec![0.1; 2],
+                    vec![Motion::Free; 2],
+                    CutOptions::default(),
+                )
                 .unwrap()
+            } else {
+                MovingParticles::free(mesh, params, domain, x0.clone(), 0.1, CutOptions::default())
+                    .unwrap()
+            }
         };
         let mut straight = setup();
         for _ in 0..steps {
@@ -162,8 +192,30 @@ fn a_restored_run_continues_the_saved_one() {
             .fold(0.0, f64::max);
         assert!(
             diff < RESTORE_TOL && du < RESTORE_TOL,
-            "{coupling:?}: particles differ by {diff:e}, velocity by {du:e}"
+            "{coupling:?}, follows {follows}: particles differ by {diff:e}, velocity by {du:e}"
         );
+        if follows {
+            // the mesh went with the particles: refined around each, the far field as built
+            let mesh = resumed.flow().mesh();
+            let h = |ax: &Axis, x: f64| {
+                let e = ax.locate(x);
+                ax.vertices[e + 1] - ax.vertices[e]
+            };
+            for c in &b.x {
+                let (hx, hy) = (h(&mesh.ax, c[0]), h(&mesh.ay, c[1]));
+                assert!(
+                    (hx - 0.025).abs() < 2e-3 && (hy - 0.025).abs() < 2e-3,
+                    "element at a centre {hx} × {hy}, want 0.05 / 2"
+                );
+            }
+            // the zones reach to |x| = 0.25 + 0.6 (and the particles moved little)
+            let base = Axis::uniform(-1.0, 1.0, 40);
+            assert_eq!(
+                mesh.ax.vertices[..3],
+                base.vertices[..3],
+                "|x| ≥ 0.9 unmoved"
+            );
+        }
         // and the restore really carried something: a fresh start differs at this time
         let mut fresh = setup();
         for _ in 0..steps / 2 {

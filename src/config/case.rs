@@ -162,6 +162,14 @@ pub struct Numerics {
     /// in a string started around x = 0 (thesis Fig. 5.25 refines around the particles).
     #[serde(default = "one", skip_serializing_if = "is_one")]
     pub grading_x: f64,
+    /// Confined shear with moving particles (Wi > 0): a computational mesh that follows the
+    /// particles. Every step the vertex columns and rows near each particle are moved so that the
+    /// elements within `core` radii of its centre are `ratio` times smaller than those of the
+    /// mesh set by `mesh`/`grading`/`grading_x`, the count kept by coarser elements out to `reach`
+    /// radii and nothing moved beyond (a tensor-product variant of thesis 3.3.4). Default off
+    /// (then not part of the case id).
+    #[serde(default, skip_serializing_if = "Option::is_none")]
+    pub follow: Option<FollowMesh>,
     /// Refine around particles with the grid deformation method (thesis 3.3.4). Not implemented:
     /// `true` is refused by validation, so that a case never runs silently without it.
     #[serde(default)]
@@ -202,6 +210,34 @@ pub struct Numerics {
     /// the mesh, computed per case. Not in the case id when `lab`.
     #[serde(default, skip_serializing_if = "FrameChoice::is_lab")]
     pub frame: FrameChoice,
+}
+
+/// A mesh that follows the particles (see [`Numerics::follow`]); lengths in particle radii.
+#[derive(Debug, Clone, Copy, PartialEq, Serialize, Deserialize)]
+#[serde(deny_unknown_fields)]
+pub struct FollowMesh {
+    /// Refinement of the core: element size there = the fixed mesh's / ratio (≥ 1).
+    pub ratio: f64,
+    /// Refinement across the channel (rows), if other than `ratio`; 1 leaves the rows where
+    /// they are (e.g. for a string, whose cores would cover much of the height).
+    #[serde(default, skip_serializing_if = "Option::is_none")]
+    pub ratio_y: Option<f64>,
+    /// Half-width of the refined core around a centre, in radii; default 1.5.
+    #[serde(default = "default_follow_core")]
+    pub core: f64,
+    /// Half-width of the zone beyond which no vertex moves, in radii (> core); default 8 (at
+    /// ratio 2 neighbouring elements then differ by ≤ 10 % and the coarsest taper element is
+    /// 2.3 times the fixed mesh's; `crate::mesh::follow` has the trade-offs).
+    #[serde(default = "default_follow_reach")]
+    pub reach: f64,
+}
+
+fn default_follow_core() -> f64 {
+    1.5
+}
+
+fn default_follow_reach() -> f64 {
+    8.0
 }
 
 /// The frame a case is solved in (see [`Numerics::frame`]).

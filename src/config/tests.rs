@@ -213,6 +213,27 @@ fn grading_below_one_and_grid_deformation_are_refused() {
         "numerics.grading_x"
     );
     assert!(CaseSpec::from_value(with("grading_x", json!(2.0))).is_ok());
+    let follow = |f: Value| with("follow", f);
+    assert!(CaseSpec::from_value(follow(json!({"ratio": 2.0, "ratio_y": 1.0}))).is_ok());
+    assert_eq!(
+        field_of(follow(json!({"ratio": 0.5}))),
+        "numerics.follow.ratio"
+    );
+    assert_eq!(
+        field_of(follow(json!({"ratio": 2.0, "core": 3.0, "reach": 2.0}))),
+        "numerics.follow"
+    );
+    // a core of 1.5 radii refined 3 times needs more than 4.5 radii of zone
+    let e = CaseSpec::from_value(follow(json!({"ratio": 3.0, "ratio_y": 1.0, "reach": 4.0})))
+        .expect_err("no room");
+    assert_eq!(e.field, "numerics.follow");
+    assert!(e.message.contains("along the channel"), "{}", e.message);
+    // the string's three cores (y = −0.1, 0, 0.1) cover half the height: no room in the rows
+    let e = CaseSpec::from_value(follow(json!({"ratio": 2.0}))).expect_err("no room");
+    assert!(e.message.contains("across the channel"), "{}", e.message);
+    let mut newtonian = follow(json!({"ratio": 2.0}));
+    newtonian["fluid"] = json!({"model": "newtonian", "wi": 0.0});
+    assert_eq!(field_of(newtonian), "numerics.follow");
     let mut c = couette();
     c["numerics"]["grading_x"] = json!(2.0);
     assert_eq!(

@@ -6,6 +6,8 @@ use serde_json::Value;
 use super::case::{CaseSpec, FrameChoice, Geometry, HistoryRemap, Layout, Model, StressCoupling};
 use super::error::{json_path_at_line, SpecError};
 use crate::geometry::layout;
+use crate::mesh::follow::{follow_axis, Follow};
+use crate::mesh::Axis;
 
 /// Particles may touch each other or a wall initially (the thesis' δ = 2 set-up touches the walls, 5.7.3);
 /// only overlaps deeper than this fraction of the radius are rejected, to forgive decimal rounding.
@@ -47,7 +49,8 @@ impl CaseSpec {
         self.validate_fluid()?;
         self.validate_numerics()?;
         self.validate_time_step()?;
-        self.validate_particles()
+        self.validate_particles()?;
+        self.validate_follow_room()
     }
 
     fn validate_time_step(&self) -> Result<(), SpecError> {
@@ -147,6 +150,49 @@ impl CaseSpec {
         }
     }
 
+    /// A mesh that follows the particles must have room for its cores around the initial
+    /// positions (after the particles are known to be valid and inside the channel).
+    fn validate_follow_room(&self) -> Result<(), SpecError> {
+        let (Some(f), Geometry::ConfinedShear { h, l, .. }, Some(a)) =
+            (&self.numerics.follow, &self.geometry, self.radius())
+        else {
+            return Ok(());
+        };
+        let n = &self.numerics;
+        let x0 = self.initial_positions();
+        let axes = [
+            (
+                "along",
+                Axis::centred(-0.5 * l, 0.5 * l, n.mesh[0], n.grading_x),
+                f.ratio,
+                Some(*l),
+                0,
+            ),
+            (
+                "across",
+                Axis::centred(-0.5 * h, 0.5 * h, n.mesh[1], n.grading),
+                f.ratio_y.unwrap_or(f.ratio),
+                None,
+                1,
+            ),
+        ];
+        for (direction, base, ratio, period, k) in axes {
+            let spec = Follow {
+                ratio,
+                core: f.core * a,
+                reach: f.reach * a,
+            };
+            let centres: Vec<f64> = x0.iter().map(|c| c[k]).collect();
+            if let Err(e) = follow_axis(&base, &centres, &spec, period) {
+                return Err(SpecError::new(
+                    "numerics.follow",
+                    format!("no room to refine {direction} the channel around the initial positions: {e}"),
+                ));
+            }
+        }
+        Ok(())
+    }
+
     fn validate_numerics(&self) -> Result<(), SpecError> {
         let n = &self.numerics;
         if n.mesh[0] == 0 || n.mesh[1] == 0 {
@@ -193,11 +239,41 @@ impl CaseSpec {
                 "grading along x applies to the confined-shear channel only; remove it",
             ));
         }
+        if let Some(f) = &n.follow {
+            if !matches!(self.geometry, Geometry::ConfinedShear { .. }) || self.fluid.wi == 0.0 {
+                return Err(SpecError::new(
+                    "numerics.follow",
+                    "a mesh that follows the particles applies to viscoelastic confined-shear \
+                     cases (Wi > 0) only; remove the field",
+                ));
+            }
+            for (field, ratio) in [
+                ("numerics.follow.ratio", f.ratio),
+                ("numerics.follow.ratio_y", f.ratio_y.unwrap_or(1.0)),
+            ] {
+                if !(ratio >= 1.0 && ratio.is_finite()) {
+                    return Err(SpecError::new(
+                        field,
+                        format!("the core refinement must be ≥ 1 (got {ratio})"),
+                    ));
+                }
+            }
+            if !(f.core > 0.0 && f.reach > f.core && f.reach.is_finite()) {
+                return Err(SpecError::new(
+                    "numerics.follow",
+                    format!(
+                        "need 0 < core < reach (in particle radii; got core {}, reach {})",
+                        f.core, f.reach
+                    ),
+                ));
+            }
+        }
         if n.grid_deformation {
             return Err(SpecError::new(
                 "numerics.grid_deformation",
                 "the grid deformation method (thesis 3.3.4) is not implemented; remove the field \
-                 (or use numerics.grading to refine the centre of the channel)",
+                 (numerics.follow refines the mesh around moving particles, numerics.grading the \
+                 centre of the channel)",
             ));
         }
         let explicit = matches!(

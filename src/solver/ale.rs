@@ -266,6 +266,11 @@ impl TemporaryAle {
         self.previous.as_deref()
     }
 
+    /// The vertex coordinates (x and y axes) of the mesh the last displacement was solved on.
+    pub fn last_axes(&self) -> Option<&(Axis, Axis)> {
+        self.previous_axes.as_ref()
+    }
+
     /// Sets the last step's mesh displacement (continuing a saved run).
     ///
     /// # Errors

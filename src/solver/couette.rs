@@ -205,8 +205,8 @@ impl CouetteCase {
             cuts,
         );
         let g = self.geometry;
-        st.set_velocity(Side::Bottom, |x| g.wall_velocity(Side::Bottom, x));
-        st.set_velocity(Side::Top, |x| g.wall_velocity(Side::Top, x));
+        st.set_velocity(Side::Bottom, move |x| g.wall_velocity(Side::Bottom, x));
+        st.set_velocity(Side::Top, move |x| g.wall_velocity(Side::Top, x));
         st.pin_pressure();
         let sol = st
             .solve(&|_| [0.0, 0.0])

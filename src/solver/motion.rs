@@ -152,8 +152,8 @@ impl ShearCase {
             cuts,
         );
         let uw = 0.5 * self.wall_speed;
-        st.set_velocity(Side::Bottom, |_| [-uw, 0.0]);
-        st.set_velocity(Side::Top, |_| [uw, 0.0]);
+        st.set_velocity(Side::Bottom, move |_| [-uw, 0.0]);
+        st.set_velocity(Side::Top, move |_| [uw, 0.0]);
         st.pin_pressure();
         let sol = st
             .solve(&|_| [0.0, 0.0])

@@ -12,7 +12,8 @@
 
 use std::time::Instant;
 
-use crate::mesh::{Mesh, Side};
+use crate::mesh::follow::{follow_axis, Follow};
+use crate::mesh::{Axis, Mesh, Shape, Side};
 use crate::particles::{
     correct, find_annulus_contact, find_contact, predict, Contact, RigidState, CONTACT_OVERLAP,
 };
@@ -69,8 +70,8 @@ impl Domain for ShearDomain {
 
     fn apply_walls(&self, flow: &mut ViscoelasticFlow) {
         let (uw, d) = (0.5 * self.wall_speed, self.drift);
-        flow.set_velocity(Side::Bottom, |_| [d - uw, 0.0]);
-        flow.set_velocity(Side::Top, |_| [d + uw, 0.0]);
+        flow.set_velocity(Side::Bottom, move |_| [d - uw, 0.0]);
+        flow.set_velocity(Side::Top, move |_| [d + uw, 0.0]);
         flow.pin_pressure();
     }
 
@@ -188,9 +189,45 @@ pub enum MovingError {
         /// Step.
         step: usize,
     },
+    /// The mesh that follows the particles cannot be built around their positions.
+    #[error("step {step}: mesh that follows the particles: {reason}")]
+    Follow {
+        /// Step.
+        step: usize,
+        /// Cause.
+        reason: String,
+    },
     /// Inconsistent set-up.
     #[error("{0}")]
     Setup(String),
+}
+
+/// A computational mesh that follows the particles (a tensor-product variant of thesis
+/// §3.3.4): the vertex columns and rows of `base` near each particle are moved every step so
+/// that the elements around it are refined (see [`follow_axis`]); topology, numbering and every
+/// vertex away from the particles stay as in `base`.
+#[derive(Debug, Clone)]
+pub struct FollowingMesh {
+    /// The mesh the refinement is applied to (a rectangle).
+    pub base: Mesh,
+    /// Refinement of the columns around the particles' x.
+    pub x: Follow,
+    /// Refinement of the rows around the particles' y.
+    pub y: Follow,
+}
+
+impl FollowingMesh {
+    /// The mesh refined around particles at `centres` (`period`: of a periodic x-axis).
+    ///
+    /// # Errors
+    /// The reason when an axis has no room for the refinement.
+    pub fn mesh_at(&self, centres: &[[f64; 2]], period: Option<f64>) -> Result<Mesh, String> {
+        let cx: Vec<f64> = centres.iter().map(|c| c[0]).collect();
+        let cy: Vec<f64> = centres.iter().map(|c| c[1]).collect();
+        let ax = follow_axis(&self.base.ax, &cx, &self.x, period).map_err(|e| e.to_string())?;
+        let ay = follow_axis(&self.base.ay, &cy, &self.y, None).map_err(|e| e.to_string())?;
+        Ok(self.base.with_axes(ax, ay))
+    }
 }
 
 /// Wall-clock seconds of the particle-specific phases of one step (the flow and stress phases
@@ -230,6 +267,10 @@ pub struct MovingCheckpoint {
     pub fields_at: Vec<[f64; 2]>,
     /// The ALE mesh displacement of the last step (BDF2 mesh velocity).
     pub ale_displacement: Option<Vec<[f64; 2]>>,
+    /// The vertex coordinates along x and y of the mesh that displacement was solved on, when
+    /// the mesh follows the particles (absent in checkpoints of fixed-mesh runs).
+    #[serde(default, skip_serializing_if = "Option::is_none")]
+    pub ale_axes: Option<(Vec<f64>, Vec<f64>)>,
     /// The fluid.
     pub flow: FlowState,
 }
@@ -249,6 +290,8 @@ pub struct MovingParticles<D: Domain> {
     /// X̂ⁿ: the (predicted) positions at which the current fields were computed.
     fields_at: Vec<[f64; 2]>,
     dt: f64,
+    /// The mesh that follows the particles (`None`: fixed mesh).
+    follow: Option<FollowingMesh>,
 }
 
 impl<D: Domain> MovingParticles<D> {
@@ -260,6 +303,46 @@ impl<D: Domain> MovingParticles<D> {
     /// [`MovingError::Flow`] if the geometry or the first solve fails.
     pub fn new(
         mesh: Mesh,
+        params: ViscoelasticParams,
+        domain: D,
+        x0: Vec<[f64; 2]>,
+        radius: Vec<f64>,
+        motion: Vec<Motion>,
+        cut: CutOptions,
+    ) -> Result<Self, MovingError> {
+        Self::build(mesh, None, params, domain, x0, radius, motion, cut)
+    }
+
+    /// [`new`](Self::new) on a computational mesh that follows the particles, starting as
+    /// `follow`'s mesh at `x0`.
+    ///
+    /// # Errors
+    /// As [`new`](Self::new); [`MovingError::Setup`] for an annulus,
+    /// [`MovingError::Follow`] if the refinement does not fit around `x0`.
+    pub fn following(
+        follow: FollowingMesh,
+        params: ViscoelasticParams,
+        domain: D,
+        x0: Vec<[f64; 2]>,
+        radius: Vec<f64>,
+        motion: Vec<Motion>,
+        cut: CutOptions,
+    ) -> Result<Self, MovingError> {
+        if follow.base.shape != Shape::Rectangle {
+            return Err(MovingError::Setup(
+                "a mesh that follows the particles needs a rectangle".into(),
+            ));
+        }
+        let mesh = follow
+            .mesh_at(&x0, domain.period())
+            .map_err(|reason| MovingError::Follow { step: 0, reason })?;
+        Self::build(mesh, Some(follow), params, domain, x0, radius, motion, cut)
+    }
+
+    #[allow(clippy::too_many_arguments)]
+    fn build(
+        mesh: Mesh,
+        follow: Option<FollowingMesh>,
         params: ViscoelasticParams,
         domain: D,
         x0: Vec<[f64; 2]>,
@@ -298,6 +381,7 @@ impl<D: Domain> MovingParticles<D> {
             prev: None,
             fields_at: x0,
             dt: params.dt,
+            follow,
         })
     }
 
@@ -353,10 +437,20 @@ impl<D: Domain> MovingParticles<D> {
             })
             .collect();
         let first_order = self.flow.history().previous.is_none();
+        // the computational mesh of the coming step: refined around X̂ⁿ⁺¹ if it follows them
+        let onto = match &self.follow {
+            Some(f) => Some(
+                f.mesh_at(&x_pred, self.domain.period())
+                    .map_err(|reason| MovingError::Follow { step, reason })?,
+            ),
+            None => None,
+        };
+        let target = onto.as_ref().unwrap_or(self.flow.mesh());
         let map = self
             .ale
-            .advance(
+            .advance_onto(
                 self.flow.mesh(),
+                target,
                 &moves,
                 self.domain.period(),
                 self.dt,
@@ -367,11 +461,12 @@ impl<D: Domain> MovingParticles<D> {
         // 3. classify at the predicted configuration
         let t1 = Instant::now();
         let particles = make_particles(&self.domain, &x_pred, &self.radius, &self.motion);
-        let cuts = compute_cuts(self.flow.mesh(), &particles, self.domain.period(), self.cut)
+        let cuts = compute_cuts(target, &particles, self.domain.period(), self.cut)
             .map_err(|source| MovingError::Cut { step, source })?;
         let classify = t1.elapsed().as_secs_f64();
         let t2 = Instant::now();
-        self.flow.move_particles(
+        self.flow.move_particles_onto(
+            onto,
             particles,
             cuts,
             HistoryMap {
@@ -453,6 +548,11 @@ impl<D: Domain> MovingParticles<D> {
             prev: self.prev.clone(),
             fields_at: self.fields_at.clone(),
             ale_displacement: self.ale.last_displacement().map(<[_]>::to_vec),
+            ale_axes: self
+                .follow
+                .as_ref()
+                .and(self.ale.last_axes())
+                .map(|(ax, ay)| (ax.vertices.clone(), ay.vertices.clone())),
             flow: self.flow.state(),
         }
     }
@@ -475,12 +575,36 @@ impl<D: Domain> MovingParticles<D> {
         }
         let step = cp.flow.history.steps();
         let particles = make_particles(&self.domain, &cp.fields_at, &self.radius, &self.motion);
-        let cuts = compute_cuts(self.flow.mesh(), &particles, self.domain.period(), self.cut)
+        // a mesh that follows the particles is a function of the positions the fields are at
+        let mesh = match &self.follow {
+            Some(f) => Some(
+                f.mesh_at(&cp.fields_at, self.domain.period())
+                    .map_err(|reason| MovingError::Follow { step, reason })?,
+            ),
+            None => None,
+        };
+        let on = mesh.as_ref().unwrap_or(self.flow.mesh());
+        let cuts = compute_cuts(on, &particles, self.domain.period(), self.cut)
             .map_err(|source| MovingError::Cut { step, source })?;
+        let ale_mesh = match (&self.follow, cp.ale_axes) {
+            (Some(f), Some((ax, ay))) => {
+                let fits = (ax.len(), ay.len()) == (f.base.ax.len() + 1, f.base.ay.len() + 1);
+                if !fits {
+                    return Err(MovingError::Setup(
+                        "the checkpoint's ALE mesh has other element counts".into(),
+                    ));
+                }
+                Some(
+                    f.base
+                        .with_axes(Axis { vertices: ax }, Axis { vertices: ay }),
+                )
+            }
+            _ => None,
+        };
         self.ale
-            .set_last_displacement(cp.ale_displacement, self.flow.mesh())
+            .set_last_displacement(cp.ale_displacement, ale_mesh.as_ref().unwrap_or(on))
             .map_err(|source| MovingError::Ale { step, source })?;
-        self.flow.restore(cp.flow, particles, cuts)?;
+        self.flow.restore_on(mesh, cp.flow, particles, cuts)?;
         self.cur = cp.cur;
         self.prev = cp.prev;
         self.fields_at = cp.fields_at;

@@ -283,8 +283,75 @@ const RESIDUAL_TOL: f64 = 1e-10;
 /// Largest lattice region (in Q2 nodes) the nested-dissection ordering keeps in natural order.
 const ND_LEAF: usize = 4;
 
-/// A reusable Stokes solver on a fixed mesh: the pattern and the symbolic factorization are built
-/// once; each [`solve`](Self::solve) assembles, refactors numerically and solves.
+/// Margin, in elements along each index direction, by which [`Stokes::set_mesh`] widens the
+/// elements whose coordinates changed when it adds them to the moving-element mask (elements
+/// assembled every step, outside the cached fluid base). A grading that travels with the
+/// particles changes a band of columns and rows that moves with them by a fraction of an
+/// element per time step: with the margin the band travels about this many elements before a
+/// changed element falls outside the mask and the base must be rebuilt (one assembly of the
+/// fluid elements) instead of at every step. The price is 2 × 4 more columns (and rows) of
+/// elements assembled every step — 4 % of a 200×50 channel per column band — cheap beside the
+/// numeric factorization that a moved mesh needs at every step anyway.
+const MOVING_MARGIN: usize = 4;
+
+/// A wall velocity x ↦ u(x) of [`Stokes::set_velocity`], kept to re-evaluate it on a moved mesh.
+type WallVelocity = Box<dyn Fn([f64; 2]) -> [f64; 2] + Send + Sync>;
+
+/// Whether element `e`'s matrix is assembled every step rather than cached in the fluid base:
+/// it lies in some particle's reach (it may be cut while the pattern lasts) or in the
+/// moving-element mask (its coordinates may change).
+fn assembled_each_step(reach: &[Vec<bool>], moving: &[bool], e: usize) -> bool {
+    moving[e] || reach.iter().any(|r| r[e])
+}
+
+/// The elements of `marked` (numbered `ey·nx + ex`, `dims` = (nx, ny)) widened by `margin`
+/// elements along each index direction (a box), wrapping around a periodic first direction.
+fn dilate(marked: &[bool], (nx, ny): (usize, usize), periodic: bool, margin: usize) -> Vec<bool> {
+    let m = margin as isize;
+    let mut wide = vec![false; nx * ny];
+    for e in (0..nx * ny).filter(|&e| marked[e]) {
+        let (ex, ey) = ((e % nx) as isize, e / nx);
+        for d in -m..=m {
+            let x = ex + d;
+            let x = if periodic {
+                x.rem_euclid(nx as isize)
+            } else if (0..nx as isize).contains(&x) {
+                x
+            } else {
+                continue;
+            };
+            wide[ey * nx + x as usize] = true;
+        }
+    }
+    let mut out = vec![false; nx * ny];
+    for e in (0..nx * ny).filter(|&e| wide[e]) {
+        let (ex, ey) = (e % nx, (e / nx) as isize);
+        for y in (ey - m).max(0)..=(ey + m).min(ny as isize - 1) {
+            out[y as usize * nx + ex] = true;
+        }
+    }
+    out
+}
+
+/// Appends the (dof, value) pairs of the velocity `f` at the nodes of `side`.
+fn push_wall_values(
+    mesh: &Mesh,
+    layout: &Layout,
+    side: Side,
+    f: &dyn Fn([f64; 2]) -> [f64; 2],
+    out: &mut Vec<(usize, f64)>,
+) {
+    for k in mesh.side_nodes(side) {
+        let v = f(mesh.nodes[k]);
+        for (c, vc) in v.iter().enumerate() {
+            out.push((layout.u(k, c), *vc));
+        }
+    }
+}
+
+/// A reusable Stokes solver on a mesh of fixed topology: the pattern and the symbolic
+/// factorization are built once; each [`solve`](Self::solve) assembles, refactors numerically and
+/// solves. The mesh's vertex columns and rows may move ([`set_mesh`](Self::set_mesh)).
 pub struct Stokes {
     /// The mesh.
     pub mesh: Mesh,
@@ -299,6 +366,8 @@ pub struct Stokes {
     /// Wall velocities (dof, value) set by [`set_velocity`](Self::set_velocity), kept when
     /// the particles move.
     wall_values: Vec<(usize, f64)>,
+    /// The wall velocities as given, in call order, re-evaluated on a moved mesh.
+    walls: Vec<(Side, WallVelocity)>,
     pressure_pinned: bool,
     solver: Option<DirectSolver>,
     factored_values: Option<Vec<f64>>,
@@ -307,17 +376,25 @@ pub struct Stokes {
     pub refactorizations: usize,
     /// Pattern (and symbolic analysis) rebuilds caused by [`set_particles`](Self::set_particles).
     pub pattern_rebuilds: usize,
+    /// Invalidations of the cached fluid base matrix by [`set_mesh`](Self::set_mesh) (an element
+    /// outside the moving-element mask moved); the base is rebuilt at the next solve.
+    pub base_rebuilds: usize,
     rule: QuadRule,
     particles: Vec<Particle>,
     cuts: Vec<ElementCut>,
     /// Per particle, the elements coupled to its rigid-body unknowns in the pattern.
     reach: Vec<Vec<bool>>,
     /// Matrix values of the elements outside every particle's reach (fluid while the pattern
-    /// lasts), without stress or constraints, and the (η, θ) they were built with: with no stress
-    /// in the matrix (explicit coupling) a step starts from them and assembles the matrix of the
-    /// elements in reach only. (Subtracting cut elements from an all-fluid base instead lost the
-    /// relative accuracy of the tiny entries of sliver rows to cancellation.)
+    /// lasts) and outside `moving`, without stress or constraints, and the (η, θ) they were
+    /// built with: with no stress in the matrix (explicit coupling) a step starts from them and
+    /// assembles the matrix of the elements in reach or in `moving` only. (Subtracting cut
+    /// elements from an all-fluid base instead lost the relative accuracy of the tiny entries of
+    /// sliver rows to cancellation; for the same reason a moved element is never subtracted and
+    /// re-added, the base is rebuilt without it.)
     fluid_base: Option<(Vec<f64>, f64, f64)>,
+    /// Per element, whether its coordinates may change ([`set_mesh`](Self::set_mesh)): such
+    /// elements are left out of the fluid base and assembled every step.
+    moving: Vec<bool>,
     /// All dofs unconstrained (assembly before the elimination of constraints).
     unconstrained: Vec<Option<f64>>,
     /// Timings of the last solve.
@@ -353,6 +430,7 @@ impl Stokes {
         let reach = reach_for(&mesh, &particles, &cuts);
         let matrix = build_pattern(&mesh, &layout, &reach);
         let n = layout.n_dofs();
+        let n_elements = mesh.n_elements();
         let mut st = Self {
             mesh,
             params,
@@ -362,16 +440,19 @@ impl Stokes {
             sol: vec![0.0; n],
             fixed: Vec::new(),
             wall_values: Vec::new(),
+            walls: Vec::new(),
             pressure_pinned: false,
             solver: None,
             factored_values: None,
             refactorizations: 0,
             pattern_rebuilds: 0,
+            base_rebuilds: 0,
             rule: gauss_quad(3),
             particles,
             cuts,
             reach,
             fluid_base: None,
+            moving: vec![false; n_elements],
             unconstrained: vec![None; n],
             timings: Timings::default(),
         };
@@ -382,7 +463,8 @@ impl Stokes {
     /// Moves the particles (same number, new centres and motions) and cuts: the pattern and the
     /// symbolic factorization are kept while every cut element lies in its particles' reach
     /// (about two element sizes of travel) and rebuilt around the new positions
-    /// otherwise. Wall velocities and the pressure pin are kept.
+    /// otherwise. Wall velocities and the pressure pin are kept. After
+    /// [`set_mesh`](Self::set_mesh), `cuts` are those of the new mesh.
     ///
     /// # Panics
     /// Panics if the number of particles or of cuts changes.
@@ -403,6 +485,63 @@ impl Stokes {
             self.pattern_rebuilds += 1;
         }
         self.factored_values = None;
+        self.reset_constraints();
+    }
+
+    /// Moves the mesh's vertex columns and rows: `mesh` has this mesh's topology (shape, element
+    /// counts, periodicity and period; typically `self.mesh.with_axes(ax, ay)`), only its
+    /// coordinates differ. The pattern, the particles' reach and the symbolic factorization are
+    /// kept (they depend on the topology only); the numeric factorization is redone, the wall
+    /// velocities of [`set_velocity`](Self::set_velocity) are evaluated at the new node
+    /// coordinates and the pressure pin is kept.
+    ///
+    /// Elements whose coordinates changed (exact comparison) must lie in a mask of elements
+    /// assembled every step; the cached matrix of the elements outside it and outside the
+    /// particles' reach is kept while they do. Otherwise the mask becomes the changed elements
+    /// widened by a few elements (`MOVING_MARGIN`, 4) and that matrix is rebuilt at the next
+    /// solve.
+    ///
+    /// The cuts are not recomputed: with particles, call [`set_particles`](Self::set_particles)
+    /// next, with cuts computed on the new mesh, before solving.
+    ///
+    /// # Panics
+    /// Panics if the shape, the element counts, the periodicity or the period differ.
+    pub fn set_mesh(&mut self, mesh: Mesh) {
+        let old = &self.mesh;
+        assert!(
+            mesh.shape == old.shape && mesh.periodic == old.periodic && mesh.dims() == old.dims(),
+            "Stokes::set_mesh: another topology"
+        );
+        let span = |m: &Mesh| m.ax.vertices[m.ax.len()] - m.ax.vertices[0];
+        assert!(
+            !mesh.periodic || (span(&mesh) - span(old)).abs() <= 1e-12 * span(old),
+            "Stokes::set_mesh: another period"
+        );
+        debug_assert!(
+            mesh.elements == old.elements && mesh.element_vertices == old.element_vertices
+        );
+        let changed: Vec<bool> = (mesh.element_coords.iter().zip(&old.element_coords))
+            .map(|(a, b)| a != b)
+            .collect();
+        if changed.iter().zip(&self.moving).any(|(&c, &m)| c && !m) {
+            // the base is rebuilt from the current coordinates: the mask need only hold the band
+            // that moves now (a mask that only grew would empty the base of a particle that
+            // travels along the channel)
+            self.moving = dilate(&changed, mesh.dims(), mesh.periodic, MOVING_MARGIN);
+            self.fluid_base = None;
+            self.base_rebuilds += 1;
+        }
+        self.mesh = mesh;
+        self.factored_values = None;
+        self.wall_values.clear();
+        for (side, f) in &self.walls {
+            push_wall_values(&self.mesh, &self.layout, *side, f, &mut self.wall_values);
+        }
+        self.reset_constraints();
+    }
+
+    /// The constraints of the current cuts, particle motions, wall velocities and pressure pin.
+    fn reset_constraints(&mut self) {
         self.fixed = self.geometric_constraints();
         for &(dof, v) in &self.wall_values {
             self.fixed[dof] = Some(v);
@@ -454,16 +593,20 @@ impl Stokes {
         (self.layout.n_dofs(), self.matrix.nnz())
     }
 
-    /// Prescribes the velocity `f(x)` at all nodes of the given sides.
-    pub fn set_velocity(&mut self, side: Side, f: impl Fn([f64; 2]) -> [f64; 2]) {
-        for k in self.mesh.side_nodes(side) {
-            let v = f(self.mesh.nodes[k]);
-            for (c, vc) in v.iter().enumerate() {
-                let dof = self.layout.u(k, c);
-                self.fixed[dof] = Some(*vc);
-                self.wall_values.push((dof, *vc));
-            }
+    /// Prescribes the velocity `f(x)` at all nodes of the given side (a later call wins at nodes
+    /// shared by two sides). `f` is kept and re-evaluated when the mesh moves
+    /// ([`set_mesh`](Self::set_mesh)).
+    pub fn set_velocity(
+        &mut self,
+        side: Side,
+        f: impl Fn([f64; 2]) -> [f64; 2] + Send + Sync + 'static,
+    ) {
+        let start = self.wall_values.len();
+        push_wall_values(&self.mesh, &self.layout, side, &f, &mut self.wall_values);
+        for &(dof, v) in &self.wall_values[start..] {
+            self.fixed[dof] = Some(v);
         }
+        self.walls.push((side, Box::new(f)));
     }
 
     /// Pins the pressure at vertex 0 (for flows with velocity prescribed on the whole boundary).
@@ -562,9 +705,10 @@ impl Stokes {
         for e in 0..self.mesh.n_elements() {
             element_dofs(&self.mesh, &lay, e, &mut dofs);
             let xe = &self.mesh.element_coords[e];
-            // outside every particle's reach an element is fluid while the pattern lasts and its
-            // matrix is in the base (built without the reach: no cancellation on cut rows)
-            let in_base = cached && !self.reach.iter().any(|r| r[e]);
+            // outside every particle's reach an element is fluid while the pattern lasts and,
+            // unless it may move, its matrix is in the base (built without the reach and the
+            // moving elements: no cancellation on cut rows)
+            let in_base = cached && !assembled_each_step(&self.reach, &self.moving, e);
             let cut = match &self.cuts[e] {
                 ElementCut::Inside => continue,
                 ElementCut::Fluid => None,
@@ -743,7 +887,8 @@ impl Stokes {
         }
     }
 
-    /// Matrix values of the elements outside every reach (no stress, no constraints).
+    /// Matrix values of the elements outside every reach and the moving-element mask (no stress,
+    /// no constraints).
     fn fluid_values(&mut self) -> Vec<f64> {
         let lay = self.layout;
         let (eta, theta) = (self.params.eta, self.params.theta);
@@ -755,7 +900,7 @@ impl Stokes {
         let mut scratch = vec![0.0; lay.n_dofs()];
         self.matrix.zero();
         for e in 0..self.mesh.n_elements() {
-            if self.reach.iter().any(|r| r[e]) {
+            if assembled_each_step(&self.reach, &self.moving, e) {
                 continue;
             }
             element_dofs(&self.mesh, &lay, e, &mut dofs);
@@ -1095,6 +1240,11 @@ mod tests {
         )
     }
 
+    /// The period of a periodic channel.
+    fn period(mesh: &Mesh) -> f64 {
+        mesh.ax.vertices[mesh.ax.len()] - mesh.ax.vertices[0]
+    }
+
     fn solve_at(st: &mut Stokes) -> StokesSolution {
         st.solve(&|_| [0.0, 0.0]).unwrap()
     }
@@ -1105,7 +1255,7 @@ mod tests {
             radius: 0.2,
             motion: Motion::Free,
         }];
-        let cuts = compute_cuts(mesh, &p, Some(2.0), CutOptions::default()).unwrap();
+        let cuts = compute_cuts(mesh, &p, Some(period(mesh)), CutOptions::default()).unwrap();
         let mut st = Stokes::with_particles(
             mesh.clone(),
             StokesParams::new(1.0, 0.0, SolverKind::Lblt),
@@ -1124,7 +1274,8 @@ mod tests {
             radius: 0.2,
             motion: Motion::Free,
         }];
-        let cuts = compute_cuts(&st.mesh, &p, Some(2.0), CutOptions::default()).unwrap();
+        let cuts =
+            compute_cuts(&st.mesh, &p, Some(period(&st.mesh)), CutOptions::default()).unwrap();
         st.set_particles(p, cuts);
     }
 
@@ -1139,6 +1290,149 @@ mod tests {
             .zip(&b.rigid)
             .flat_map(|(x, y)| (0..3).map(move |c| (x[c] - y[c]).abs()));
         du.chain(dr).fold(0.0, f64::max)
+    }
+
+    /// A Stokes whose mesh moved and one built on the moved mesh assemble the same element
+    /// matrices, summed in another order (cached base or every step) and factored in another
+    /// elimination order (the fresh pattern's reach is taken from the new coordinates): they
+    /// differ by the round-off of a direct solve, relative to the solution's scale.
+    const FRESH_BUILD_TOL: f64 = 1e-10;
+
+    /// The channel of the moving-mesh tests, 32×16: wide enough that the moving-element mask
+    /// (the changed columns and rows widened by [`MOVING_MARGIN`]) leaves elements in the base.
+    fn long_channel() -> Mesh {
+        Mesh::rectangle(
+            Axis::uniform(-2.0, 2.0, 32),
+            Axis::uniform(-0.5, 0.5, 16),
+            true,
+        )
+    }
+
+    /// `axis` with the vertices `lo..=hi` moved toward `c` by the factor `s` (a local grading).
+    fn squeezed(axis: &Axis, lo: usize, hi: usize, c: f64, s: f64) -> Axis {
+        let mut vertices = axis.vertices.clone();
+        vertices[lo..=hi]
+            .iter_mut()
+            .for_each(|x| *x = c + s * (*x - c));
+        Axis { vertices }
+    }
+
+    /// Largest difference of velocity, pressure and rigid velocities relative to the largest of
+    /// them in `b`.
+    fn rel_diff(a: &StokesSolution, b: &StokesSolution) -> f64 {
+        let dp = a.p.iter().zip(&b.p).map(|(x, y)| (x - y).abs());
+        let scale = (b.u.iter().flatten().chain(&b.p))
+            .chain(b.rigid.iter().flatten())
+            .fold(0.0, |m: f64, v| m.max(v.abs()));
+        dp.fold(max_diff(a, b), f64::max) / scale
+    }
+
+    #[test]
+    fn a_moved_mesh_solves_like_a_stokes_built_on_it() {
+        let mesh = long_channel();
+        let c = [0.013, 0.101];
+        let mut st = fresh(&mesh, c);
+        // builds the fluid base on the uniform mesh
+        let before = solve_at(&mut st);
+        // a grading around the particle moves columns 13..=18 and rows 6..=9, base elements too
+        let graded = mesh.with_axes(
+            squeezed(&mesh.ax, 14, 18, 0.0, 0.8),
+            squeezed(&mesh.ay, 7, 9, 0.1, 0.8),
+        );
+        st.set_mesh(graded.clone());
+        moved(&mut st, c);
+        let a = solve_at(&mut st);
+        assert_eq!((st.pattern_rebuilds, st.base_rebuilds), (0, 1));
+        let b = solve_at(&mut fresh(&graded, c));
+        let d = rel_diff(&a, &b);
+        eprintln!("moved mesh vs fresh: {d:.2e}");
+        assert!(d < FRESH_BUILD_TOL, "{d}");
+        // not vacuous: the nodes moved in the shear flow
+        assert!(max_diff(&a, &before) > 1e-3, "{}", max_diff(&a, &before));
+    }
+
+    #[test]
+    fn moves_inside_the_mask_keep_the_fluid_base() {
+        let mesh = long_channel();
+        let c = [0.013, 0.101];
+        let mut st = fresh(&mesh, c);
+        let _ = solve_at(&mut st);
+        let graded = mesh.with_axes(
+            squeezed(&mesh.ax, 14, 18, 0.0, 0.8),
+            squeezed(&mesh.ay, 7, 9, 0.1, 0.8),
+        );
+        st.set_mesh(graded);
+        moved(&mut st, c);
+        let _ = solve_at(&mut st);
+        assert_eq!(st.base_rebuilds, 1);
+        // the grading travels on with the particle: columns 13..=19 and rows 6..=10 change,
+        // inside the mask (columns 9..=22, rows 2..=13)
+        let c2 = [0.05, 0.11];
+        let next = mesh.with_axes(
+            squeezed(&mesh.ax, 15, 19, 0.05, 0.7),
+            squeezed(&mesh.ay, 7, 10, 0.11, 0.8),
+        );
+        st.set_mesh(next.clone());
+        moved(&mut st, c2);
+        let a = solve_at(&mut st);
+        assert_eq!((st.pattern_rebuilds, st.base_rebuilds), (0, 1));
+        let d = rel_diff(&a, &solve_at(&mut fresh(&next, c2)));
+        eprintln!("second move vs fresh: {d:.2e}");
+        assert!(d < FRESH_BUILD_TOL, "{d}");
+        // back to the uniform axes
+        st.set_mesh(mesh.clone());
+        moved(&mut st, c);
+        let a = solve_at(&mut st);
+        assert_eq!((st.pattern_rebuilds, st.base_rebuilds), (0, 1));
+        let d = rel_diff(&a, &solve_at(&mut fresh(&mesh, c)));
+        eprintln!("moved back vs fresh: {d:.2e}");
+        assert!(d < FRESH_BUILD_TOL, "{d}");
+        // columns moved outside the mask (across the periodic seam) grow it: one more rebuild
+        let far = mesh.with_axes(squeezed(&mesh.ax, 1, 3, 0.0, 0.9), mesh.ay.clone());
+        st.set_mesh(far.clone());
+        moved(&mut st, c);
+        let a = solve_at(&mut st);
+        assert_eq!((st.pattern_rebuilds, st.base_rebuilds), (0, 2));
+        let d = rel_diff(&a, &solve_at(&mut fresh(&far, c)));
+        eprintln!("far columns vs fresh: {d:.2e}");
+        assert!(d < FRESH_BUILD_TOL, "{d}");
+    }
+
+    #[test]
+    fn a_moved_annulus_re_evaluates_the_wall_velocities() {
+        // circular Couette flow: inner cylinder turning at ω = 1, outer at rest
+        let couette = |mesh: &Mesh| {
+            let params = StokesParams::new(1.0, 0.0, SolverKind::Lblt);
+            let mut st = Stokes::new(mesh.clone(), params);
+            st.set_velocity(Side::Bottom, |x| [-x[1], x[0]]);
+            st.set_velocity(Side::Top, |_| [0.0, 0.0]);
+            st.pin_pressure();
+            st
+        };
+        let n = 24;
+        let mesh = Mesh::annulus(n, Axis::uniform(1.0, 2.0, 4));
+        let mut st = couette(&mesh);
+        let before = solve_at(&mut st);
+        // a non-uniform θ axis with the same span: the wall nodes slide along the circles
+        let tau = 2.0 * std::f64::consts::PI;
+        let mut vertices: Vec<f64> = (0..=n)
+            .map(|i| {
+                let s = i as f64 / n as f64;
+                tau * s + 0.3 * (tau * s).sin()
+            })
+            .collect();
+        vertices[n] = mesh.ax.vertices[n];
+        let theta = Axis { vertices };
+        let moved_mesh = mesh.with_axes(theta, mesh.ay.clone());
+        st.set_mesh(moved_mesh.clone());
+        let a = solve_at(&mut st);
+        let d = rel_diff(&a, &solve_at(&mut couette(&moved_mesh)));
+        eprintln!("moved annulus vs fresh: {d:.2e}");
+        assert!(d < FRESH_BUILD_TOL, "{d}");
+        // not vacuous: the wall nodes moved, and with them their velocities
+        let k = moved_mesh.side_nodes(Side::Bottom)[3];
+        assert!((a.u[k][0] - before.u[k][0]).abs() > 1e-2);
+        assert_eq!(a.u[k], [-moved_mesh.nodes[k][1], moved_mesh.nodes[k][0]]);
     }
 
     #[test]

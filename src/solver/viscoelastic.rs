@@ -455,7 +455,11 @@ impl ViscoelasticFlow {
     }
 
     /// Prescribes the velocity on a side (walls), for all times.
-    pub fn set_velocity(&mut self, side: Side, f: impl Fn([f64; 2]) -> [f64; 2]) {
+    pub fn set_velocity(
+        &mut self,
+        side: Side,
+        f: impl Fn([f64; 2]) -> [f64; 2] + Send + Sync + 'static,
+    ) {
         self.stokes.set_velocity(side, f);
     }
 
@@ -535,6 +539,27 @@ impl ViscoelasticFlow {
         cuts: Vec<ElementCut>,
         map: HistoryMap<'_>,
     ) -> Result<(), ViscoelasticError> {
+        self.move_particles_onto(None, particles, cuts, map)
+    }
+
+    /// [`move_particles`](Self::move_particles) onto a computational mesh `onto` whose vertex
+    /// columns and rows have moved (same topology; `None`: the mesh stays): the `map` gives the
+    /// pre-images of `onto`'s vertices in the current mesh (see
+    /// [`TemporaryAle::advance_onto`](crate::solver::ale::TemporaryAle::advance_onto)) and
+    /// `cuts` are the particles cut into `onto`.
+    ///
+    /// # Errors
+    /// As [`move_particles`](Self::move_particles).
+    ///
+    /// # Panics
+    /// As [`move_particles`](Self::move_particles), and if `onto` has another topology.
+    pub fn move_particles_onto(
+        &mut self,
+        onto: Option<Mesh>,
+        particles: Vec<Particle>,
+        cuts: Vec<ElementCut>,
+        map: HistoryMap<'_>,
+    ) -> Result<(), ViscoelasticError> {
         if self.flow_rate.is_some() {
             return Err(ViscoelasticError::FlowRateNeedsFixedBodies);
         }
@@ -550,6 +575,10 @@ impl ViscoelasticFlow {
         extend_inside(&self.mesh, &known, &mut g);
         carry_history(&mut self.history, &mut self.unmapped, &map);
         self.gradient = interpolate(&g, map.at_n).into_iter().map(|g| g.0).collect();
+        // the carried fields are values at the new mesh's vertices from here on
+        if let Some(mesh) = onto {
+            self.set_mesh(mesh);
+        }
         self.fluid_node = fluid_nodes(&self.mesh, &particles, &cuts);
         self.transport.set_cuts(&self.mesh, cuts.clone());
         self.projection.set_cuts(&self.mesh, cuts.clone());
@@ -576,6 +605,25 @@ impl ViscoelasticFlow {
             _ => None,
         };
         Ok(())
+    }
+
+    /// Swaps in a computational mesh of the same topology whose columns or rows have moved; the
+    /// nodal fields are taken as values at its nodes (the caller has mapped them). The cuts must
+    /// be set next (as [`move_particles_onto`](Self::move_particles_onto) and
+    /// [`restore_on`](Self::restore_on) do).
+    fn set_mesh(&mut self, mesh: Mesh) {
+        assert!(
+            mesh.dims() == self.mesh.dims()
+                && mesh.periodic == self.mesh.periodic
+                && mesh.shape == self.mesh.shape,
+            "ViscoelasticFlow: a moved mesh must have the same topology"
+        );
+        if (&mesh.ax, &mesh.ay) == (&self.mesh.ax, &self.mesh.ay) {
+            return;
+        }
+        self.stokes.set_mesh(mesh.clone());
+        self.projection.geometry_changed();
+        self.mesh = mesh;
     }
 
     /// The time-dependent state after a step: what [`restore`](Self::restore) needs to continue
@@ -610,6 +658,25 @@ impl ViscoelasticFlow {
         particles: Vec<Particle>,
         cuts: Vec<ElementCut>,
     ) -> Result<(), ViscoelasticError> {
+        self.restore_on(None, state, particles, cuts)
+    }
+
+    /// [`restore`](Self::restore) a state computed on `mesh` (same topology, columns and rows
+    /// possibly moved: a mesh that follows the particles; `None`: the current mesh), with `cuts`
+    /// on that mesh.
+    ///
+    /// # Errors
+    /// As [`restore`](Self::restore).
+    ///
+    /// # Panics
+    /// If `mesh` has another topology.
+    pub fn restore_on(
+        &mut self,
+        mesh: Option<Mesh>,
+        state: FlowState,
+        particles: Vec<Particle>,
+        cuts: Vec<ElementCut>,
+    ) -> Result<(), ViscoelasticError> {
         let (nv, nn) = (self.mesh.n_vertices(), self.mesh.n_nodes());
         let np = self.rigid.len();
         let fits = |what: &str, len: usize, want: usize| {
@@ -640,6 +707,9 @@ impl ViscoelasticFlow {
         fits("particles", particles.len(), np)?;
         if self.flow_rate.is_some() {
             return Err(ViscoelasticError::FlowRateNeedsFixedBodies);
+        }
+        if let Some(mesh) = mesh {
+            self.set_mesh(mesh);
         }
         self.fluid_node = fluid_nodes(&self.mesh, &particles, &cuts);
         if np > 0 {

@@ -10,6 +10,7 @@
 
 use crate::config::{CaseSpec, Geometry, HistoryRemap, StressCoupling};
 use crate::fem::element::{q1, Q2_NODES};
+use crate::mesh::follow::Follow;
 use crate::mesh::{Axis, Mesh};
 use crate::observe::{CaseObserver, Control, FieldSnapshot, NodalField, ParticleState, Sample};
 use crate::particles::RigidState;
@@ -20,7 +21,8 @@ use crate::solver::couette::CouetteGeometry;
 use crate::solver::cutcells::level_set;
 use crate::solver::motion::{channel_mesh, FlowFields, MotionEnd, ShearCase};
 use crate::solver::moving::{
-    Domain, MovingCheckpoint, MovingEnd, MovingParticles, RotatingCouette, ShearDomain,
+    Domain, FollowingMesh, MovingCheckpoint, MovingEnd, MovingParticles, RotatingCouette,
+    ShearDomain,
 };
 use crate::solver::rigid::{Motion, Particle};
 use crate::solver::viscoelastic::ViscoelasticParams;
@@ -402,7 +404,33 @@ fn run_moving<D: Domain>(
     };
     let period = domain.period();
     let frame = Frame::of(case);
-    let mut sim = match MovingParticles::free(mesh, params, domain, x0, a, cut) {
+    let n = x0.len();
+    let built = match case.numerics.follow {
+        Some(f) => {
+            // lengths of the case file in particle radii
+            let spec = |ratio| Follow {
+                ratio,
+                core: f.core * a,
+                reach: f.reach * a,
+            };
+            let follow = FollowingMesh {
+                base: mesh,
+                x: spec(f.ratio),
+                y: spec(f.ratio_y.unwrap_or(f.ratio)),
+            };
+            MovingParticles::following(
+                follow,
+                params,
+                domain,
+                x0,
+                vec![a; n],
+                vec![Motion::Free; n],
+                cut,
+            )
+        }
+        None => MovingParticles::free(mesh, params, domain, x0, a, cut),
+    };
+    let mut sim = match built {
         Ok(s) => s,
         Err(e) => {
             return CaseResult {

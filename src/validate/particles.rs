@@ -167,30 +167,63 @@ pub fn single_particle_case(
     remap: &str,
     co_moving: bool,
 ) -> CaseSpec {
-    let v = serde_json::json!({
+    single_particle_run(
+        mesh,
+        t_end,
+        &LabRun {
+            remap,
+            follow: None,
+        },
+        co_moving,
+    )
+}
+
+/// One lab-frame run of [`lab_frame_comparison`]: the history remap and, if any, the core
+/// refinement of a mesh that follows the particle (`numerics.follow.ratio`, both axes).
+#[derive(Debug, Clone, Copy)]
+pub struct LabRun<'a> {
+    /// `numerics.remap`.
+    pub remap: &'a str,
+    /// `numerics.follow.ratio` (default core and reach).
+    pub follow: Option<f64>,
+}
+
+fn single_particle_run(mesh: [usize; 2], t_end: f64, run: &LabRun, co_moving: bool) -> CaseSpec {
+    let mut v = serde_json::json!({
         "geometry": { "confined_shear": { "h": 1.0, "l": 2.0, "wall_speed": 1.0 } },
         "fluid": { "model": "giesekus", "wi": 1.0, "alpha": 0.2, "beta": 1.0 / 11.0 },
         "particles": { "radius": 0.05, "layout": { "explicit": { "positions": [[0.0, -0.4]] } } },
         "numerics": {
-            "mesh": mesh, "dt": 0.02, "t_end": t_end, "remap": remap,
+            "mesh": mesh, "dt": 0.02, "t_end": t_end, "remap": run.remap,
             "frame_velocity": if co_moving { -0.4 } else { 0.0 }
         },
         "output": { "sample_every": 5, "snapshot_every": 0 },
         "stop": { "early_stop": false }
     });
+    if let Some(ratio) = run.follow {
+        v["numerics"]["follow"] = serde_json::json!({ "ratio": ratio });
+    }
     CaseSpec::from_value(v).expect("the single-particle case spec is valid by construction")
 }
 
-/// Runs the §5.5 particle on `mesh` up to `t_end`: the co-moving frame (bicubic remap) first,
-/// then the lab frame with each of `remaps`.
-pub fn lab_frame_comparison(mesh: [usize; 2], t_end: f64, remaps: &[&str]) -> Vec<FrameRun> {
-    let runs = std::iter::once(("co-moving frame, bicubic".to_string(), "bicubic", true)).chain(
-        remaps
-            .iter()
-            .map(|r| (format!("lab frame, {r}"), *r, false)),
+/// Runs the §5.5 particle on `mesh` up to `t_end`: the co-moving frame (bicubic remap, fixed
+/// mesh) first, then the lab frame with each of `lab`.
+pub fn lab_frame_comparison(mesh: [usize; 2], t_end: f64, lab: &[LabRun]) -> Vec<FrameRun> {
+    let co_moving = LabRun {
+        remap: "bicubic",
+        follow: None,
+    };
+    let runs = std::iter::once(("co-moving frame, bicubic".to_string(), co_moving, true)).chain(
+        lab.iter().map(|r| {
+            let label = match r.follow {
+                Some(ratio) => format!("lab frame, {}, mesh following ×{ratio}", r.remap),
+                None => format!("lab frame, {}", r.remap),
+            };
+            (label, *r, false)
+        }),
     );
-    runs.map(|(label, remap, co_moving)| {
-        let spec = single_particle_case(mesh, t_end, remap, co_moving);
+    runs.map(|(label, run, co_moving)| {
+        let spec = single_particle_run(mesh, t_end, &run, co_moving);
         let t0 = std::time::Instant::now();
         let mut obs = Series(Vec::new());
         let res = SolverRunner.run(&spec, 1, &mut obs);

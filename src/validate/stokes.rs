@@ -131,7 +131,7 @@ pub fn stokes_mms(
         let (mesh, label, h) = mms_mesh(domain, l);
         let mut st = Stokes::new(mesh, params);
         for side in [Side::Bottom, Side::Top] {
-            st.set_velocity(side, |x| exact.u(x));
+            st.set_velocity(side, move |x| exact.u(x));
         }
         st.pin_pressure();
         let sol = st.solve(&|x| exact.force(x))?;
@@ -191,8 +191,8 @@ pub fn plane_couette_max_error(with_g: bool) -> Result<f64, SolveError> {
         mesh,
         StokesParams::new(0.7, if with_g { 0.3 } else { 0.0 }, SolverKind::Lblt),
     );
-    st.set_velocity(Side::Bottom, |_| [-u / 2.0, 0.0]);
-    st.set_velocity(Side::Top, |_| [u / 2.0, 0.0]);
+    st.set_velocity(Side::Bottom, move |_| [-u / 2.0, 0.0]);
+    st.set_velocity(Side::Top, move |_| [u / 2.0, 0.0]);
     st.pin_pressure();
     let sol = st.solve(&|_| [0.0, 0.0])?;
     let mut worst: f64 = 0.0;
@@ -229,7 +229,7 @@ pub fn circular_couette(levels: usize) -> Result<ConvStudy, SolveError> {
         let (nt, nr) = (16 * m, 4 * m);
         let mesh = Mesh::annulus(nt, Axis::graded(1.0, 4.0, nr, 1.0, 1.0));
         let mut st = Stokes::new(mesh, StokesParams::new(1.0, 0.0, SolverKind::Lblt));
-        st.set_velocity(Side::Bottom, |x| exact.u(x));
+        st.set_velocity(Side::Bottom, move |x| exact.u(x));
         st.set_velocity(Side::Top, |_| [0.0, 0.0]);
         st.pin_pressure();
         let sol = st.solve(&|_| [0.0, 0.0])?;

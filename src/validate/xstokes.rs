@@ -204,7 +204,7 @@ pub fn cylinder_exact(
         params.rigid_form = form;
         let mut st = Stokes::with_particles(mesh, params, particles, cuts.clone());
         for side in [Side::Bottom, Side::Top, Side::Left, Side::Right] {
-            st.set_velocity(side, |x| exact.u(x));
+            st.set_velocity(side, move |x| exact.u(x));
         }
         st.pin_pressure();
         let sol = st.solve(&|_| [0.0, 0.0])?;
