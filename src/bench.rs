@@ -175,7 +175,9 @@ pub struct MovingBench {
 /// H = 1, L = 4, a = 0.1, Giesekus Wi = 1, α = 0.01, β = 0.1, Δt = 0.01) on an `nx × ny` mesh:
 /// particles on the line through the origin of slope −0.2 spaced 0.5 apart (the three-particle
 /// start of §5.7.2 for n = 3), `warm_up` untimed steps, then medians over `steps` steps;
-/// explicit coupling with the lagged Gⁿ, or with G as flow unknowns if `coupled_g`.
+/// explicit coupling with the lagged Gⁿ, or with G as flow unknowns if `coupled_g`; with
+/// `follow = Some(r)` on a mesh that follows the particles along x (columns r times finer within
+/// 1.5a, count kept out to 12a, as `sweeps/three_particles_follow.toml`).
 ///
 /// # Errors
 /// [`crate::solver::moving::MovingError`] if a step fails or particles touch.
@@ -186,8 +188,10 @@ pub fn moving(
     warm_up: usize,
     steps: usize,
     coupled_g: bool,
+    follow: Option<f64>,
 ) -> Result<MovingBench, crate::solver::moving::MovingError> {
-    use crate::solver::moving::{MovingError, MovingParticles, ShearDomain};
+    use crate::mesh::follow::Follow;
+    use crate::solver::moving::{FollowingMesh, MovingError, MovingParticles, ShearDomain};
     use crate::solver::viscoelastic::ViscoelasticParams;
     let (h, l, a) = (1.0, 4.0, 0.1);
     let mesh = crate::solver::motion::channel_mesh(h, l, [nx, ny], 1.0, 1.0);
@@ -206,14 +210,24 @@ pub fn moving(
     };
     let mut params = ViscoelasticParams::new(0.1, 0.9, 1.0, 0.01, 0.01, 1.0);
     params.coupled_g = coupled_g;
-    let mut sim = MovingParticles::free(
-        mesh,
-        params,
-        domain,
-        x0,
-        a,
-        crate::xfem::CutOptions::default(),
-    )?;
+    let cut = crate::xfem::CutOptions::default();
+    let mut sim = match follow {
+        Some(ratio) => {
+            let spec = |ratio| Follow {
+                ratio,
+                core: 1.5 * a,
+                reach: 12.0 * a,
+            };
+            let f = FollowingMesh {
+                base: mesh,
+                x: spec(ratio),
+                y: spec(1.0),
+            };
+            let free = vec![crate::solver::rigid::Motion::Free; n];
+            MovingParticles::following(f, params, domain, x0, vec![a; n], free, cut)?
+        }
+        None => MovingParticles::free(mesh, params, domain, x0, a, cut)?,
+    };
     // the history interpolation cases use by default
     sim.set_remap(crate::sweep::solver_runner::ale_remap(
         crate::config::HistoryRemap::default(),
@@ -230,7 +244,10 @@ pub fn moving(
         median(reports.iter().map(f).collect())
     };
     Ok(MovingBench {
-        mesh: format!("{nx}x{ny}"),
+        mesh: match follow {
+            Some(r) => format!("{nx}x{ny} following ×{r}"),
+            None => format!("{nx}x{ny}"),
+        },
         particles: n,
         unknowns: sim.flow().sizes(),
         steps,

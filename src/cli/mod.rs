@@ -89,6 +89,10 @@ pub enum Command {
         /// Quadtree levels of the cut-cell quadrature (drag benchmark).
         #[arg(long, default_value_t = 3)]
         cut_level: u32,
+        /// Moving benchmark: a mesh that follows the particles along x, columns this many times
+        /// finer around each (`numerics.follow.ratio`).
+        #[arg(long)]
+        follow: Option<f64>,
     },
 }
 
@@ -203,13 +207,14 @@ pub fn run(cli: Cli) -> anyhow::Result<ExitCode> {
             particles,
             h,
             cut_level,
+            follow,
         } => match name {
             BenchName::Moving => {
                 println!("{}", crate::bench::MovingBench::HEADER);
                 for m in mesh.split(',') {
                     let (nx, ny) = parse_mesh(m)?;
                     for &n in &particles {
-                        let b = crate::bench::moving(nx, ny, n, 3, repeats.max(1), with_g)?;
+                        let b = crate::bench::moving(nx, ny, n, 3, repeats.max(1), with_g, follow)?;
                         println!("{}", b.to_row());
                     }
                 }

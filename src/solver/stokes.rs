@@ -16,6 +16,7 @@
 //! Dirichlet velocities are eliminated symmetrically; for enclosed flows the pressure is pinned
 //! at one vertex and shifted to zero mean afterwards.
 
+use std::collections::HashMap;
 use std::time::Instant;
 
 use crate::fem::element::{physical_gradients, q1, q2, q2_map};
@@ -395,6 +396,11 @@ pub struct Stokes {
     /// Per element, whether its coordinates may change ([`set_mesh`](Self::set_mesh)): such
     /// elements are left out of the fluid base and assembled every step.
     moving: Vec<bool>,
+    /// Fluid element matrices of axis-parallel rectangles by their sides (the matrix of such an
+    /// element depends on them only), for the elements assembled every step, with the (η, θ)
+    /// they were built with: the columns of a mesh that follows the particles have one width
+    /// each, so a step computes one matrix per column and row size instead of per element.
+    rectangles: RectangleMatrices,
     /// All dofs unconstrained (assembly before the elimination of constraints).
     unconstrained: Vec<Option<f64>>,
     /// Timings of the last solve.
@@ -453,6 +459,7 @@ impl Stokes {
             reach,
             fluid_base: None,
             moving: vec![false; n_elements],
+            rectangles: (0.0, 0.0, HashMap::new()),
             unconstrained: vec![None; n],
             timings: Timings::default(),
         };
@@ -697,6 +704,13 @@ impl Stokes {
             self.matrix.zero();
         }
         self.rhs.iter_mut().for_each(|v| *v = 0.0);
+        let rectangles = cached && self.mesh.shape == Shape::Rectangle;
+        if rectangles
+            && ((self.rectangles.0, self.rectangles.1) != (eta, theta)
+                || self.rectangles.2.len() > RECTANGLE_CACHE_LEN)
+        {
+            self.rectangles = (eta, theta, HashMap::new());
+        }
         let mut dofs = Vec::with_capacity(MAX_EL_DOFS);
         let mut ke = [0.0; MAX_EL_DOFS * MAX_EL_DOFS];
         let mut fe = [0.0; MAX_EL_DOFS];
@@ -723,9 +737,11 @@ impl Stokes {
             let fe = &mut fe[..ndc];
             ke.iter_mut().for_each(|v| *v = 0.0);
             fe.iter_mut().for_each(|v| *v = 0.0);
+            // a fluid rectangle outside the base: its matrix from the sides, the loads below
+            let by_sides = rectangles && cut.is_none() && !in_base;
             match cut {
-                None if in_base => {
-                    // the matrix part is in the base: the loads only
+                None if in_base || by_sides => {
+                    // the matrix part is in the base or known from the sides: the loads only
                     for (q, ((n2, dref), _)) in tab.iter().enumerate() {
                         let (x, jac, det) = q2_map(xe, self.rule.points[q]);
                         let w = self.rule.weights[q] * det;
@@ -741,10 +757,20 @@ impl Stokes {
                             volume_terms(ke, fe, ndc, w, n2, &dn, &lin);
                         }
                     }
-                    for (a, &i) in dofs.iter().enumerate() {
-                        self.rhs[i] += fe[a];
+                    if !by_sides {
+                        for (a, &i) in dofs.iter().enumerate() {
+                            self.rhs[i] += fe[a];
+                        }
+                        continue;
                     }
-                    continue;
+                    let (key, canonical) = canonical_rectangle(xe);
+                    let m = self.rectangles.2.entry(key).or_insert_with(|| {
+                        let mut m = vec![0.0; nd * nd];
+                        let rule = &self.rule;
+                        element_matrix_at(&canonical, rule, &tab, eta, theta, lay.with_g, &mut m);
+                        m.into_boxed_slice()
+                    });
+                    ke.copy_from_slice(m);
                 }
                 None => {
                     for (q, ((n2, dref), psi)) in tab.iter().enumerate() {
@@ -1079,6 +1105,37 @@ impl Stokes {
     }
 }
 
+/// (η, θ) and the fluid element matrices by rectangle sides (see `Stokes::rectangles`).
+type RectangleMatrices = (f64, f64, HashMap<[u64; 2], Box<[f64]>>);
+
+/// Distinct rectangle sizes kept by [`Stokes`] between steps before it starts afresh (a mesh
+/// that follows the particles creates a few hundred per step; 4096 matrices of 38×38 are 47 MB).
+const RECTANGLE_CACHE_LEN: usize = 4096;
+
+/// The side lengths (bit patterns) of an axis-parallel rectangular element, whose fluid matrix
+/// depends on them only, and the same element placed with its lower-left corner at the origin:
+/// the matrix computed there is the same whichever element of these sides asks first (a
+/// restored run assembles bit for bit what the saved one did).
+fn canonical_rectangle(xe: &[[f64; 2]; 9]) -> ([u64; 2], [[f64; 2]; 9]) {
+    let (mut lo, mut hi) = ([f64::INFINITY; 2], [f64::NEG_INFINITY; 2]);
+    for x in xe {
+        for c in 0..2 {
+            lo[c] = lo[c].min(x[c]);
+            hi[c] = hi[c].max(x[c]);
+        }
+    }
+    let side = [hi[0] - lo[0], hi[1] - lo[1]];
+    let mut canonical = [[0.0; 2]; 9];
+    for (y, x) in canonical.iter_mut().zip(xe) {
+        for c in 0..2 {
+            // the node's place along the side: 0, 1/2 or 1
+            let t = (2.0 * (x[c] - lo[c]) / side[c]).round() * 0.5;
+            y[c] = t * side[c];
+        }
+    }
+    ([side[0].to_bits(), side[1].to_bits()], canonical)
+}
+
 /// Local dof list of element `e`: 18 velocity, 4 pressure, then 16 G (if present).
 fn element_dofs(mesh: &Mesh, lay: &Layout, e: usize, dofs: &mut Vec<usize>) {
     dofs.clear();
@@ -1118,12 +1175,25 @@ fn fluid_element_matrix(
     with_g: bool,
     ke: &mut [f64],
 ) {
+    element_matrix_at(&mesh.element_coords[e], rule, tab, eta, theta, with_g, ke);
+}
+
+/// [`fluid_element_matrix`] of an element with nodes `xe`.
+fn element_matrix_at(
+    xe: &[[f64; 2]; 9],
+    rule: &QuadRule,
+    tab: &[ShapeTable],
+    eta: f64,
+    theta: f64,
+    with_g: bool,
+    ke: &mut [f64],
+) {
     let nd = 22 + if with_g { 16 } else { 0 };
     let mut fe = [0.0; MAX_EL_DOFS];
     let mut dn = [[0.0; 2]; 9];
     ke.iter_mut().for_each(|v| *v = 0.0);
     for (q, ((n2, dref), psi)) in tab.iter().enumerate() {
-        let (_, jac, det) = q2_map(&mesh.element_coords[e], rule.points[q]);
+        let (_, jac, det) = q2_map(xe, rule.points[q]);
         physical_gradients(&jac, det, dref, &mut dn);
         let w = rule.weights[q] * det;
         stokes_kernel(
