@@ -58,6 +58,9 @@ def fmt(v) -> str:
         return "–"
     if isinstance(v, str):
         return v
+    if isinstance(v, dict):
+        # a nested setting (numerics.follow = {ratio, reach, ...}): '(ratio 2, reach 12)'
+        return "(" + ", ".join(f"{k} {fmt(x)}" for k, x in sorted(v.items())) + ")"
     if isinstance(v, (int, np.integer)):
         return str(int(v))
     v = float(v)

@@ -153,6 +153,23 @@ particles.layout.string.ly = [0.04, 0.06, 0.1]
 "#,
     );
     run(&db, &shear, &FakeRunner::new(shear_behaviour));
+    // a nested numerical setting (a mesh that follows the particles) in the set-up titles
+    let follow = sweep(
+        dir,
+        "follow.toml",
+        r#"
+name = "follow"
+[base]
+geometry.confined_shear = { h = 1.0, l = 4.0 }
+fluid = { model = "giesekus", wi = 2.0, alpha = 0.01, beta = 0.1 }
+particles = { radius = 0.1, layout.string = { n = 3, lx = 0.5, ly = 0.1 } }
+numerics = { mesh = [40, 10], dt = 0.01, t_end = 20.0, follow = { ratio = 2.0, ratio_y = 1.0 } }
+output = { sample_every = 10 }
+[axes]
+numerics.follow.ratio = [1.5, 2.0]
+"#,
+    );
+    run(&db, &follow, &FakeRunner::new(shear_behaviour));
     let regime = sweep(
         dir,
         "regime.toml",
@@ -264,7 +281,7 @@ numerics.mesh = [[40, 20], [60, 30]]
     run(&db, &single, &FakeRunner::new(single_particle_behaviour));
     let store = Store::open(&db).unwrap();
     let count = |sql: &str| -> i64 { store.connection().query_row(sql, [], |r| r.get(0)).unwrap() };
-    assert_eq!(count("SELECT COUNT(*) FROM cases"), 12 + 6 + 24 + 1 + 2 + 6);
+    assert_eq!(count("SELECT COUNT(*) FROM cases"), 12 + 2 + 6 + 24 + 1 + 2 + 6);
     assert_eq!(
         count("SELECT COUNT(*) FROM sweep_cases sc JOIN sweeps s ON s.id = sc.sweep_id WHERE s.name IN ('couette_mesh', 'shear_mesh')"),
         4,
