@@ -191,7 +191,9 @@ pub fn moving(
     follow: Option<f64>,
 ) -> Result<MovingBench, crate::solver::moving::MovingError> {
     use crate::mesh::follow::Follow;
-    use crate::solver::moving::{FollowingMesh, MovingError, MovingParticles, ShearDomain};
+    use crate::solver::moving::{
+        ComputationalMesh, FollowingMesh, MovingError, MovingParticles, ShearDomain,
+    };
     use crate::solver::viscoelastic::ViscoelasticParams;
     let (h, l, a) = (1.0, 4.0, 0.1);
     let mesh = crate::solver::motion::channel_mesh(h, l, [nx, ny], 1.0, 1.0);
@@ -210,24 +212,24 @@ pub fn moving(
     };
     let mut params = ViscoelasticParams::new(0.1, 0.9, 1.0, 0.01, 0.01, 1.0);
     params.coupled_g = coupled_g;
-    let cut = crate::xfem::CutOptions::default();
-    let mut sim = match follow {
+    let mesh: ComputationalMesh = match follow {
         Some(ratio) => {
             let spec = |ratio| Follow {
                 ratio,
                 core: 1.5 * a,
                 reach: 12.0 * a,
             };
-            let f = FollowingMesh {
+            FollowingMesh {
                 base: mesh,
                 x: spec(ratio),
                 y: spec(1.0),
-            };
-            let free = vec![crate::solver::rigid::Motion::Free; n];
-            MovingParticles::following(f, params, domain, x0, vec![a; n], free, cut)?
+            }
+            .into()
         }
-        None => MovingParticles::free(mesh, params, domain, x0, a, cut)?,
+        None => mesh.into(),
     };
+    let cut = crate::xfem::CutOptions::default();
+    let mut sim = MovingParticles::free(mesh, params, domain, x0, a, cut)?;
     // the history interpolation cases use by default
     sim.set_remap(crate::sweep::solver_runner::ale_remap(
         crate::config::HistoryRemap::default(),

@@ -281,7 +281,10 @@ numerics.mesh = [[40, 20], [60, 30]]
     run(&db, &single, &FakeRunner::new(single_particle_behaviour));
     let store = Store::open(&db).unwrap();
     let count = |sql: &str| -> i64 { store.connection().query_row(sql, [], |r| r.get(0)).unwrap() };
-    assert_eq!(count("SELECT COUNT(*) FROM cases"), 12 + 2 + 6 + 24 + 1 + 2 + 6);
+    assert_eq!(
+        count("SELECT COUNT(*) FROM cases"),
+        12 + 2 + 6 + 24 + 1 + 2 + 6
+    );
     assert_eq!(
         count("SELECT COUNT(*) FROM sweep_cases sc JOIN sweeps s ON s.id = sc.sweep_id WHERE s.name IN ('couette_mesh', 'shear_mesh')"),
         4,

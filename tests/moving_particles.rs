@@ -105,7 +105,7 @@ fn couette_particle_at_vanishing_wi_follows_the_stokes_run() {
 fn a_restored_run_continues_the_saved_one() {
     use xpflow::mesh::follow::Follow;
     use xpflow::mesh::{Axis, Mesh};
-    use xpflow::solver::moving::{FollowingMesh, MovingCheckpoint, ShearDomain};
+    use xpflow::solver::moving::{ComputationalMesh, FollowingMesh, MovingCheckpoint, ShearDomain};
     // The restored flow pattern is built around the current positions rather than where the
     // saved run last rebuilt it, which may reorder the factorization: round-off only.
     const RESTORE_TOL: f64 = 1e-10;
@@ -137,26 +137,18 @@ fn a_restored_run_continues_the_saved_one() {
             );
             let mut params = ViscoelasticParams::new(0.1, 0.9, 1.0, 0.01, dt, 1.0);
             params.coupling = coupling;
-            if follows {
-                let f = FollowingMesh {
+            let mesh: ComputationalMesh = if follows {
+                FollowingMesh {
                     base: mesh,
                     x: follow,
                     y: follow,
-                };
-                MovingParticles::following(
-                    f,
-                    params,
-                    domain,
-                    x0.clone(),
-                    vec![0.1; 2],
-                    vec![Motion::Free; 2],
-                    CutOptions::default(),
-                )
-                .unwrap()
+                }
+                .into()
             } else {
-                MovingParticles::free(mesh, params, domain, x0.clone(), 0.1, CutOptions::default())
-                    .unwrap()
-            }
+                mesh.into()
+            };
+            MovingParticles::free(mesh, params, domain, x0.clone(), 0.1, CutOptions::default())
+                .unwrap()
         };
         let mut straight = setup();
         for _ in 0..steps {

@@ -202,6 +202,27 @@ pub enum MovingError {
     Setup(String),
 }
 
+/// The computational mesh of a moving-particle run.
+#[derive(Debug, Clone)]
+pub enum ComputationalMesh {
+    /// The same mesh at every step.
+    Fixed(Mesh),
+    /// Refined around the particles at every step.
+    Following(FollowingMesh),
+}
+
+impl From<Mesh> for ComputationalMesh {
+    fn from(mesh: Mesh) -> Self {
+        ComputationalMesh::Fixed(mesh)
+    }
+}
+
+impl From<FollowingMesh> for ComputationalMesh {
+    fn from(mesh: FollowingMesh) -> Self {
+        ComputationalMesh::Following(mesh)
+    }
+}
+
 /// A computational mesh that follows the particles (a tensor-product variant of thesis
 /// §3.3.4): the vertex columns and rows of `base` near each particle are moved every step so
 /// that the elements around it are refined (see [`follow_axis`]); topology, numbering and every
@@ -296,13 +317,15 @@ pub struct MovingParticles<D: Domain> {
 
 impl<D: Domain> MovingParticles<D> {
     /// Places the particles at `x0` in the fluid at rest and solves the initial flow (τ = 0),
-    /// which gives the initial particle velocities.
+    /// which gives the initial particle velocities; `mesh` is a fixed [`Mesh`] or a
+    /// [`FollowingMesh`] (then the run starts on its mesh at `x0`).
     ///
     /// # Errors
-    /// [`MovingError::Setup`] for mismatched lengths, [`MovingError::Cut`] or
-    /// [`MovingError::Flow`] if the geometry or the first solve fails.
+    /// [`MovingError::Setup`] for mismatched lengths or a following annulus,
+    /// [`MovingError::Follow`] if the refinement does not fit around `x0`, [`MovingError::Cut`]
+    /// or [`MovingError::Flow`] if the geometry or the first solve fails.
     pub fn new(
-        mesh: Mesh,
+        mesh: impl Into<ComputationalMesh>,
         params: ViscoelasticParams,
         domain: D,
         x0: Vec<[f64; 2]>,
@@ -310,46 +333,20 @@ impl<D: Domain> MovingParticles<D> {
         motion: Vec<Motion>,
         cut: CutOptions,
     ) -> Result<Self, MovingError> {
-        Self::build(mesh, None, params, domain, x0, radius, motion, cut)
-    }
-
-    /// [`new`](Self::new) on a computational mesh that follows the particles, starting as
-    /// `follow`'s mesh at `x0`.
-    ///
-    /// # Errors
-    /// As [`new`](Self::new); [`MovingError::Setup`] for an annulus,
-    /// [`MovingError::Follow`] if the refinement does not fit around `x0`.
-    pub fn following(
-        follow: FollowingMesh,
-        params: ViscoelasticParams,
-        domain: D,
-        x0: Vec<[f64; 2]>,
-        radius: Vec<f64>,
-        motion: Vec<Motion>,
-        cut: CutOptions,
-    ) -> Result<Self, MovingError> {
-        if follow.base.shape != Shape::Rectangle {
-            return Err(MovingError::Setup(
-                "a mesh that follows the particles needs a rectangle".into(),
-            ));
-        }
-        let mesh = follow
-            .mesh_at(&x0, domain.period())
-            .map_err(|reason| MovingError::Follow { step: 0, reason })?;
-        Self::build(mesh, Some(follow), params, domain, x0, radius, motion, cut)
-    }
-
-    #[allow(clippy::too_many_arguments)]
-    fn build(
-        mesh: Mesh,
-        follow: Option<FollowingMesh>,
-        params: ViscoelasticParams,
-        domain: D,
-        x0: Vec<[f64; 2]>,
-        radius: Vec<f64>,
-        motion: Vec<Motion>,
-        cut: CutOptions,
-    ) -> Result<Self, MovingError> {
+        let (mesh, follow) = match mesh.into() {
+            ComputationalMesh::Fixed(mesh) => (mesh, None),
+            ComputationalMesh::Following(f) => {
+                if f.base.shape != Shape::Rectangle {
+                    return Err(MovingError::Setup(
+                        "a mesh that follows the particles needs a rectangle".into(),
+                    ));
+                }
+                let mesh = f
+                    .mesh_at(&x0, domain.period())
+                    .map_err(|reason| MovingError::Follow { step: 0, reason })?;
+                (mesh, Some(f))
+            }
+        };
         if x0.len() != radius.len() || x0.len() != motion.len() {
             return Err(MovingError::Setup(format!(
                 "{} positions, {} radii and {} motions: one of each per particle",
@@ -390,7 +387,7 @@ impl<D: Domain> MovingParticles<D> {
     /// # Errors
     /// As [`new`](Self::new).
     pub fn free(
-        mesh: Mesh,
+        mesh: impl Into<ComputationalMesh>,
         params: ViscoelasticParams,
         domain: D,
         x0: Vec<[f64; 2]>,

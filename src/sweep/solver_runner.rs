@@ -21,8 +21,8 @@ use crate::solver::couette::CouetteGeometry;
 use crate::solver::cutcells::level_set;
 use crate::solver::motion::{channel_mesh, FlowFields, MotionEnd, ShearCase};
 use crate::solver::moving::{
-    Domain, FollowingMesh, MovingCheckpoint, MovingEnd, MovingParticles, RotatingCouette,
-    ShearDomain,
+    ComputationalMesh, Domain, FollowingMesh, MovingCheckpoint, MovingEnd, MovingParticles,
+    RotatingCouette, ShearDomain,
 };
 use crate::solver::rigid::{Motion, Particle};
 use crate::solver::viscoelastic::ViscoelasticParams;
@@ -404,8 +404,7 @@ fn run_moving<D: Domain>(
     };
     let period = domain.period();
     let frame = Frame::of(case);
-    let n = x0.len();
-    let built = match case.numerics.follow {
+    let mesh: ComputationalMesh = match case.numerics.follow {
         Some(f) => {
             // lengths of the case file in particle radii
             let spec = |ratio| Follow {
@@ -413,23 +412,16 @@ fn run_moving<D: Domain>(
                 core: f.core * a,
                 reach: f.reach * a,
             };
-            let follow = FollowingMesh {
+            FollowingMesh {
                 base: mesh,
                 x: spec(f.ratio),
                 y: spec(f.ratio_y.unwrap_or(f.ratio)),
-            };
-            MovingParticles::following(
-                follow,
-                params,
-                domain,
-                x0,
-                vec![a; n],
-                vec![Motion::Free; n],
-                cut,
-            )
+            }
+            .into()
         }
-        None => MovingParticles::free(mesh, params, domain, x0, a, cut),
+        None => mesh.into(),
     };
+    let built = MovingParticles::free(mesh, params, domain, x0, a, cut);
     let mut sim = match built {
         Ok(s) => s,
         Err(e) => {
