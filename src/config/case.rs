@@ -4,6 +4,7 @@
 use serde::{Deserialize, Serialize};
 
 use crate::geometry::layout;
+use crate::mesh::follow::Follow;
 
 /// One fully specified simulation case. Build it with [`CaseSpec::from_value`] (or via a sweep file) so that
 /// it is validated; afterwards treat it as immutable and pass it as `&CaseSpec`.
@@ -230,6 +231,24 @@ pub struct FollowMesh {
     /// 2.3 times the fixed mesh's; `crate::mesh::follow` has the trade-offs).
     #[serde(default = "default_follow_reach")]
     pub reach: f64,
+}
+
+impl FollowMesh {
+    /// The refinement of the mesh's two axes for particles of radius `a`: along the flow (x, or
+    /// θ on an annulus, whose lengths are angles: arcs at the radius `arc_radius`) and across
+    /// it (y or r, with `ratio_y`).
+    pub fn axes(&self, a: f64, arc_radius: Option<f64>) -> [Follow; 2] {
+        let along = arc_radius.map_or(a, |r| a / r);
+        let spec = |ratio, unit: f64| Follow {
+            ratio,
+            core: self.core * unit,
+            reach: self.reach * unit,
+        };
+        [
+            spec(self.ratio, along),
+            spec(self.ratio_y.unwrap_or(self.ratio), a),
+        ]
+    }
 }
 
 fn default_follow_core() -> f64 {

@@ -227,10 +227,16 @@ fn grading_below_one_and_grid_deformation_are_refused() {
     let e = CaseSpec::from_value(follow(json!({"ratio": 3.0, "ratio_y": 1.0, "reach": 4.0})))
         .expect_err("no room");
     assert_eq!(e.field, "numerics.follow");
-    assert!(e.message.contains("along the channel"), "{}", e.message);
+    assert!(e.message.contains("along the flow"), "{}", e.message);
     // the string's three cores (y = −0.1, 0, 0.1) cover half the height: no room in the rows
     let e = CaseSpec::from_value(follow(json!({"ratio": 2.0}))).expect_err("no room");
-    assert!(e.message.contains("across the channel"), "{}", e.message);
+    assert!(e.message.contains("across the flow"), "{}", e.message);
+    // the Couette cell: θ refined by arcs at the particle's radius, r across
+    let mut c = couette();
+    c["numerics"]["follow"] = json!({"ratio": 2.0, "reach": 6.0});
+    assert!(CaseSpec::from_value(c.clone()).is_ok());
+    c["numerics"]["follow"] = json!({"ratio": 3.0, "reach": 4.0});
+    assert_eq!(field_of(c), "numerics.follow");
     let mut newtonian = follow(json!({"ratio": 2.0}));
     newtonian["fluid"] = json!({"model": "newtonian", "wi": 0.0});
     assert_eq!(field_of(newtonian), "numerics.follow");

@@ -6,7 +6,7 @@ use serde_json::Value;
 use super::case::{CaseSpec, FrameChoice, Geometry, HistoryRemap, Layout, Model, StressCoupling};
 use super::error::{json_path_at_line, SpecError};
 use crate::geometry::layout;
-use crate::mesh::follow::{follow_axis, Follow};
+use crate::mesh::follow::follow_axis;
 use crate::mesh::Axis;
 
 /// Particles may touch each other or a wall initially (the thesis' δ = 2 set-up touches the walls, 5.7.3);
@@ -151,42 +151,56 @@ impl CaseSpec {
     }
 
     /// A mesh that follows the particles must have room for its cores around the initial
-    /// positions (after the particles are known to be valid and inside the channel).
+    /// positions (after the particles are known to be valid and inside the domain).
     fn validate_follow_room(&self) -> Result<(), SpecError> {
-        let (Some(f), Geometry::ConfinedShear { h, l, .. }, Some(a)) =
-            (&self.numerics.follow, &self.geometry, self.radius())
-        else {
+        let (Some(f), Some(a)) = (&self.numerics.follow, self.radius()) else {
             return Ok(());
         };
         let n = &self.numerics;
         let x0 = self.initial_positions();
-        let axes = [
-            (
-                "along",
-                Axis::centred(-0.5 * l, 0.5 * l, n.mesh[0], n.grading_x),
-                f.ratio,
-                Some(*l),
-                0,
-            ),
-            (
-                "across",
-                Axis::centred(-0.5 * h, 0.5 * h, n.mesh[1], n.grading),
-                f.ratio_y.unwrap_or(f.ratio),
+        let two_pi = 2.0 * std::f64::consts::PI;
+        // (base axis, period, the centres' coordinates along it) along and across the flow
+        let (along, across, arc) = match self.geometry {
+            Geometry::ConfinedShear { h, l, .. } => (
+                (
+                    Axis::centred(-0.5 * l, 0.5 * l, n.mesh[0], n.grading_x),
+                    Some(l),
+                    x0.iter().map(|c| c[0]).collect::<Vec<_>>(),
+                ),
+                (
+                    Axis::centred(-0.5 * h, 0.5 * h, n.mesh[1], n.grading),
+                    None,
+                    x0.iter().map(|c| c[1]).collect::<Vec<_>>(),
+                ),
                 None,
-                1,
             ),
-        ];
-        for (direction, base, ratio, period, k) in axes {
-            let spec = Follow {
-                ratio,
-                core: f.core * a,
-                reach: f.reach * a,
-            };
-            let centres: Vec<f64> = x0.iter().map(|c| c[k]).collect();
+            // numerics.mesh is [radial, azimuthal]; θ runs clockwise from +x
+            Geometry::Couette { r1, r2, .. } => (
+                (
+                    Axis::uniform(0.0, two_pi, n.mesh[1]),
+                    Some(two_pi),
+                    x0.iter().map(|c| (-c[1]).atan2(c[0])).collect(),
+                ),
+                (
+                    Axis::centred(r1, r2, n.mesh[0], n.grading),
+                    None,
+                    x0.iter().map(|c| c[0].hypot(c[1])).collect(),
+                ),
+                x0.first().map(|c| c[0].hypot(c[1])),
+            ),
+            Geometry::CylinderChannel { .. } => return Ok(()),
+        };
+        let [spec_along, spec_across] = f.axes(a, arc);
+        for (direction, (base, period, centres), spec) in [
+            ("along", along, spec_along),
+            ("across", across, spec_across),
+        ] {
             if let Err(e) = follow_axis(&base, &centres, &spec, period) {
                 return Err(SpecError::new(
                     "numerics.follow",
-                    format!("no room to refine {direction} the channel around the initial positions: {e}"),
+                    format!(
+                        "no room to refine {direction} the flow around the initial positions: {e}"
+                    ),
                 ));
             }
         }
@@ -240,11 +254,16 @@ impl CaseSpec {
             ));
         }
         if let Some(f) = &n.follow {
-            if !matches!(self.geometry, Geometry::ConfinedShear { .. }) || self.fluid.wi == 0.0 {
+            let moving = match self.geometry {
+                Geometry::ConfinedShear { .. } => self.fluid.wi > 0.0,
+                Geometry::Couette { .. } => true,
+                Geometry::CylinderChannel { .. } => false,
+            };
+            if !moving {
                 return Err(SpecError::new(
                     "numerics.follow",
-                    "a mesh that follows the particles applies to viscoelastic confined-shear \
-                     cases (Wi > 0) only; remove the field",
+                    "a mesh that follows the particles applies to the moving-particle runs \
+                     (Couette cell, confined shear with Wi > 0) only; remove the field",
                 ));
             }
             for (field, ratio) in [

@@ -74,13 +74,9 @@ impl Mesh {
     /// moved, e.g. a grading that follows the particles.
     ///
     /// # Panics
-    /// If the element counts differ, on a periodic axis the period does, or an annulus' θ axis
-    /// does not start at 0 (its point location wraps θ into [0, 2π)).
+    /// If the element counts differ, or on a periodic axis the period does (an annulus' θ axis
+    /// may start anywhere: its point location wraps θ into [θ₀, θ₀ + 2π)).
     pub fn with_axes(&self, ax: Axis, ay: Axis) -> Self {
-        assert!(
-            self.shape != Shape::Annulus || ax.vertices[0] == 0.0,
-            "Mesh::with_axes: an annulus' θ axis starts at 0"
-        );
         assert_eq!(
             (ax.len(), ay.len()),
             self.dims(),
@@ -266,7 +262,8 @@ impl Mesh {
         if !(r1 * (1.0 - ROUND_OFF)..=r2 * (1.0 + ROUND_OFF)).contains(&r) {
             return None;
         }
-        let theta = (-x[1]).atan2(x[0]).rem_euclid(2.0 * std::f64::consts::PI);
+        let theta0 = self.ax.vertices[0];
+        let theta = theta0 + ((-x[1]).atan2(x[0]) - theta0).rem_euclid(2.0 * std::f64::consts::PI);
         let (mut et, mut er) = (self.ax.locate(theta), self.ay.locate(r));
         for _ in 0..=MAX_MOVES {
             let e = er * nt + et;
@@ -651,16 +648,27 @@ mod tests {
                 .wrapping_add(1442695040888963407);
             (s >> 11) as f64 / (1u64 << 53) as f64
         };
-        for _ in 0..2000 {
-            let (r, th) = (
-                1.0 + 3.0 * next(),
-                2.0 * std::f64::consts::PI * (next() - 0.5),
-            );
-            let x = [r * th.cos(), r * th.sin()];
-            let (e, xi) = m.locate(x).expect("a point of the annulus is located");
-            let p = q2_map(&m.element_coords[e], xi).0;
-            let err = (p[0] - x[0]).hypot(p[1] - x[1]);
-            assert!(err < TOL, "{x:?} -> {p:?} in {e}: {err}");
+        // and with a θ axis that starts elsewhere and is not uniform (a mesh that follows a
+        // particle across the seam moves vertex 0)
+        let two_pi = 2.0 * std::f64::consts::PI;
+        let theta = Axis {
+            vertices: (0..=24)
+                .map(|i| {
+                    let s = i as f64 / 24.0;
+                    -0.4 + two_pi * s + 0.2 * (two_pi * s).sin()
+                })
+                .collect(),
+        };
+        let moved = m.with_axes(theta, m.ay.clone());
+        for mesh in [&m, &moved] {
+            for _ in 0..2000 {
+                let (r, th) = (1.0 + 3.0 * next(), two_pi * (next() - 0.5));
+                let x = [r * th.cos(), r * th.sin()];
+                let (e, xi) = mesh.locate(x).expect("a point of the annulus is located");
+                let p = q2_map(&mesh.element_coords[e], xi).0;
+                let err = (p[0] - x[0]).hypot(p[1] - x[1]);
+                assert!(err < TOL, "{x:?} -> {p:?} in {e}: {err}");
+            }
         }
         // Points on the exact circles, between nodes, may lie just outside the discrete annulus:
         // located in the boundary layer, with X_e(ξ) on the discrete boundary within its distance

@@ -226,7 +226,8 @@ impl From<FollowingMesh> for ComputationalMesh {
 /// A computational mesh that follows the particles (a tensor-product variant of thesis
 /// §3.3.4): the vertex columns and rows of `base` near each particle are moved every step so
 /// that the elements around it are refined (see [`follow_axis`]); topology, numbering and every
-/// vertex away from the particles stay as in `base`.
+/// vertex away from the particles stay as in `base`. On an annulus the columns are the θ axis
+/// (`x`, lengths in radians) and the rows the radial one (`y`).
 #[derive(Debug, Clone)]
 pub struct FollowingMesh {
     /// The mesh the refinement is applied to (a rectangle).
@@ -243,8 +244,20 @@ impl FollowingMesh {
     /// # Errors
     /// The reason when an axis has no room for the refinement.
     pub fn mesh_at(&self, centres: &[[f64; 2]], period: Option<f64>) -> Result<Mesh, String> {
-        let cx: Vec<f64> = centres.iter().map(|c| c[0]).collect();
-        let cy: Vec<f64> = centres.iter().map(|c| c[1]).collect();
+        // the axes' coordinates of the centres: (x, y), or (θ, r) on an annulus (θ clockwise
+        // from +x, as the mesh runs)
+        let (cx, cy, period): (Vec<f64>, Vec<f64>, _) = match self.base.shape {
+            Shape::Rectangle => (
+                centres.iter().map(|c| c[0]).collect(),
+                centres.iter().map(|c| c[1]).collect(),
+                period,
+            ),
+            Shape::Annulus => (
+                centres.iter().map(|c| (-c[1]).atan2(c[0])).collect(),
+                centres.iter().map(|c| c[0].hypot(c[1])).collect(),
+                Some(2.0 * std::f64::consts::PI),
+            ),
+        };
         let ax = follow_axis(&self.base.ax, &cx, &self.x, period).map_err(|e| e.to_string())?;
         let ay = follow_axis(&self.base.ay, &cy, &self.y, None).map_err(|e| e.to_string())?;
         Ok(self.base.with_axes(ax, ay))
@@ -321,7 +334,7 @@ impl<D: Domain> MovingParticles<D> {
     /// [`FollowingMesh`] (then the run starts on its mesh at `x0`).
     ///
     /// # Errors
-    /// [`MovingError::Setup`] for mismatched lengths or a following annulus,
+    /// [`MovingError::Setup`] for mismatched lengths,
     /// [`MovingError::Follow`] if the refinement does not fit around `x0`, [`MovingError::Cut`]
     /// or [`MovingError::Flow`] if the geometry or the first solve fails.
     pub fn new(
@@ -336,11 +349,6 @@ impl<D: Domain> MovingParticles<D> {
         let (mesh, follow) = match mesh.into() {
             ComputationalMesh::Fixed(mesh) => (mesh, None),
             ComputationalMesh::Following(f) => {
-                if f.base.shape != Shape::Rectangle {
-                    return Err(MovingError::Setup(
-                        "a mesh that follows the particles needs a rectangle".into(),
-                    ));
-                }
                 let mesh = f
                     .mesh_at(&x0, domain.period())
                     .map_err(|reason| MovingError::Follow { step: 0, reason })?;

@@ -10,8 +10,7 @@
 
 use crate::config::{CaseSpec, Geometry, HistoryRemap, StressCoupling};
 use crate::fem::element::{q1, Q2_NODES};
-use crate::mesh::follow::Follow;
-use crate::mesh::{Axis, Mesh};
+use crate::mesh::{Axis, Mesh, Shape};
 use crate::observe::{CaseObserver, Control, FieldSnapshot, NodalField, ParticleState, Sample};
 use crate::particles::RigidState;
 use crate::rheology::Sym2;
@@ -406,18 +405,10 @@ fn run_moving<D: Domain>(
     let frame = Frame::of(case);
     let mesh: ComputationalMesh = match case.numerics.follow {
         Some(f) => {
-            // lengths of the case file in particle radii
-            let spec = |ratio| Follow {
-                ratio,
-                core: f.core * a,
-                reach: f.reach * a,
-            };
-            FollowingMesh {
-                base: mesh,
-                x: spec(f.ratio),
-                y: spec(f.ratio_y.unwrap_or(f.ratio)),
-            }
-            .into()
+            // an annulus' θ axis is refined by angles: arcs at the first particle's start radius
+            let arc = (mesh.shape == Shape::Annulus).then(|| x0[0][0].hypot(x0[0][1]));
+            let [x, y] = f.axes(a, arc);
+            FollowingMesh { base: mesh, x, y }.into()
         }
         None => mesh.into(),
     };
