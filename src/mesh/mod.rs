@@ -6,4 +6,4 @@ pub mod structured;
 
 pub use axis::Axis;
 pub use follow::{follow_axis, Follow, FollowError};
-pub use structured::{Mesh, Shape, Side};
+pub use structured::{bounding_box, Mesh, Shape, Side};

@@ -58,6 +58,19 @@ pub struct Mesh {
     n_node_cols: usize,
 }
 
+/// Bounding box (lower, upper corner) of an element's nine nodes.
+pub fn bounding_box(xe: &[[f64; 2]; 9]) -> ([f64; 2], [f64; 2]) {
+    let mut lo = [f64::INFINITY; 2];
+    let mut hi = [f64::NEG_INFINITY; 2];
+    for p in xe {
+        for i in 0..2 {
+            lo[i] = lo[i].min(p[i]);
+            hi[i] = hi[i].max(p[i]);
+        }
+    }
+    (lo, hi)
+}
+
 impl Mesh {
     /// Rectangle mesh from two axes; `periodic` identifies x = x0 with x = x1.
     pub fn rectangle(ax: Axis, ay: Axis, periodic: bool) -> Self {

@@ -17,7 +17,7 @@
 use crate::fem::element::{q1, q2_map, Q1_IN_Q2};
 use crate::fem::linsolve::{DirectSolver, SolveError, SolverKind};
 use crate::fem::sparse::{q1_pattern, SparseMatrix};
-use crate::mesh::{Axis, Mesh, Shape, Side};
+use crate::mesh::{bounding_box, Axis, Mesh, Shape, Side};
 use crate::solver::viscoelastic::{StencilWeights, STENCIL_LEN};
 
 /// Newton tolerance of the point location, in reference coordinates. Round-off limits ξ to about
@@ -632,19 +632,6 @@ fn vertex_at(mesh: &Mesh, i: isize, j: usize) -> usize {
     };
     let (ex, ey) = (i.min(nx - 1), j.min(ny - 1));
     mesh.element_vertices[ey * nx + ex][(i - ex) + 2 * (j - ey)]
-}
-
-/// Bounding box of an element's nine nodes.
-fn bounding_box(xe: &[[f64; 2]; 9]) -> ([f64; 2], [f64; 2]) {
-    let mut lo = [f64::INFINITY; 2];
-    let mut hi = [f64::NEG_INFINITY; 2];
-    for p in xe {
-        for i in 0..2 {
-            lo[i] = lo[i].min(p[i]);
-            hi[i] = hi[i].max(p[i]);
-        }
-    }
-    (lo, hi)
 }
 
 /// The periodic image of `x` (shifted by multiples of `period` in x) nearest to `near` in x.

@@ -23,7 +23,7 @@ use crate::fem::element::{physical_gradients, q1, q2, q2_map};
 use crate::fem::linsolve::{DirectSolver, DofBlocks, SolveError, SolverKind};
 use crate::fem::quadrature::{gauss_quad, QuadRule};
 use crate::fem::sparse::{PatternBuilder, SparseMatrix};
-use crate::mesh::{Mesh, Shape, Side};
+use crate::mesh::{bounding_box, Mesh, Shape, Side};
 use crate::solver::ghost::{faces_where, ghost_faces, ghost_patch_matrices};
 use crate::solver::polymer_terms::{boundary_terms, volume_terms, PolymerStress};
 use crate::solver::rigid::{
@@ -169,13 +169,7 @@ fn rigid_reach(mesh: &Mesh, particles: &[Particle]) -> Vec<Vec<bool>> {
             mesh.element_coords
                 .iter()
                 .map(|xe| {
-                    let (mut lo, mut hi) = ([f64::INFINITY; 2], [f64::NEG_INFINITY; 2]);
-                    for x in xe {
-                        for i in 0..2 {
-                            lo[i] = lo[i].min(x[i]);
-                            hi[i] = hi[i].max(x[i]);
-                        }
-                    }
+                    let (lo, hi) = bounding_box(xe);
                     let size = (hi[0] - lo[0]).max(hi[1] - lo[1]);
                     let mut c = p.center;
                     if let Some(l) = period {
@@ -767,7 +761,9 @@ impl Stokes {
                     let m = self.rectangles.2.entry(key).or_insert_with(|| {
                         let mut m = vec![0.0; nd * nd];
                         let rule = &self.rule;
-                        element_matrix_at(&canonical, rule, &tab, eta, theta, lay.with_g, &mut m);
+                        fluid_element_matrix(
+                            &canonical, rule, &tab, eta, theta, lay.with_g, &mut m,
+                        );
                         m.into_boxed_slice()
                     });
                     ke.copy_from_slice(m);
@@ -930,9 +926,8 @@ impl Stokes {
                 continue;
             }
             element_dofs(&self.mesh, &lay, e, &mut dofs);
-            fluid_element_matrix(
-                &self.mesh, &self.rule, &tab, e, eta, theta, lay.with_g, &mut ke,
-            );
+            let xe = &self.mesh.element_coords[e];
+            fluid_element_matrix(xe, &self.rule, &tab, eta, theta, lay.with_g, &mut ke);
             self.matrix
                 .scatter(&dofs, &ke, &zero, &mut scratch, &self.unconstrained);
         }
@@ -1117,13 +1112,7 @@ const RECTANGLE_CACHE_LEN: usize = 4096;
 /// the matrix computed there is the same whichever element of these sides asks first (a
 /// restored run assembles bit for bit what the saved one did).
 fn canonical_rectangle(xe: &[[f64; 2]; 9]) -> ([u64; 2], [[f64; 2]; 9]) {
-    let (mut lo, mut hi) = ([f64::INFINITY; 2], [f64::NEG_INFINITY; 2]);
-    for x in xe {
-        for c in 0..2 {
-            lo[c] = lo[c].min(x[c]);
-            hi[c] = hi[c].max(x[c]);
-        }
-    }
+    let (lo, hi) = bounding_box(xe);
     let side = [hi[0] - lo[0], hi[1] - lo[1]];
     let mut canonical = [[0.0; 2]; 9];
     for (y, x) in canonical.iter_mut().zip(xe) {
@@ -1162,24 +1151,9 @@ fn shape_table(rule: &QuadRule) -> Vec<ShapeTable> {
     rule.points.iter().map(|&xi| (q2(xi), q1(xi).0)).collect()
 }
 
-/// The Stokes matrix (viscous, DEVSS-G and pressure terms) of element `e` as fully fluid, into
-/// `ke` (`nd`×`nd`, local order of [`element_dofs`] without rigid-body slots).
-#[allow(clippy::too_many_arguments)]
+/// The Stokes matrix (viscous, DEVSS-G and pressure terms) of the element with nodes `xe` as
+/// fully fluid, into `ke` (`nd`×`nd`, local order of [`element_dofs`] without rigid-body slots).
 fn fluid_element_matrix(
-    mesh: &Mesh,
-    rule: &QuadRule,
-    tab: &[ShapeTable],
-    e: usize,
-    eta: f64,
-    theta: f64,
-    with_g: bool,
-    ke: &mut [f64],
-) {
-    element_matrix_at(&mesh.element_coords[e], rule, tab, eta, theta, with_g, ke);
-}
-
-/// [`fluid_element_matrix`] of an element with nodes `xe`.
-fn element_matrix_at(
     xe: &[[f64; 2]; 9],
     rule: &QuadRule,
     tab: &[ShapeTable],
