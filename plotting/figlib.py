@@ -15,6 +15,7 @@ from __future__ import annotations
 
 import json
 import math
+import textwrap
 import os
 import sqlite3
 import urllib.parse
@@ -52,6 +53,24 @@ KIND_STYLE = {
 
 
 # ----------------------------------------------------------------------------------------------- formatting
+def wrap_titles(fig) -> None:
+    """Wraps each line of the figure's suptitle and of the panel titles to the width they have
+    (long parameter lists ran off the edges); the constrained layout makes room for the extra
+    lines."""
+    def wrap(title, inches: float) -> None:
+        # characters per line: the width over an average glyph width of ~0.55 em
+        width = max(30, int(inches * 72 / (0.55 * title.get_fontsize())))
+        lines = title.get_text().split("\n")
+        title.set_text("\n".join(textwrap.fill(line, width) for line in lines))
+
+    if getattr(fig, "_suptitle", None) is not None:
+        wrap(fig._suptitle, fig.get_figwidth())
+    for ax in fig.axes:
+        if ax.get_title():
+            wrap(ax.title, ax.get_position().width * fig.get_figwidth())
+
+
+
 def fmt(v) -> str:
     """A parameter value as the thesis writes it: 1/3, 4/15, 0.01, 2."""
     if v is None:
@@ -315,6 +334,7 @@ class Figures:
     # -- writing
     def save(self, fig, name: str) -> list[str]:
         """Saves `fig` as <out>/<name>.png and .pdf with a provenance footer; closes it."""
+        wrap_titles(fig)
         fig.text(0.005, 0.003, f"xpflow · {self.summary()}", fontsize=6, color="0.45", ha="left", va="bottom")
         paths = []
         for ext in ("png", "pdf"):
