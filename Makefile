@@ -50,6 +50,7 @@ validate: build
 	$(BIN) validate translating-cylinder --h 0.125
 	$(BIN) validate explicit-coupling --h 0.25
 	$(BIN) validate lab-frame
+	$(BIN) validate couette-frame
 	$(CARGO) test $(PROFILE) -- --ignored
 
 # Benchmarks; record their output in docs/performance.md.

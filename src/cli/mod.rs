@@ -122,6 +122,10 @@ pub enum Study {
     /// step) in the lab frame against a frame moving with it: ω*, V* per history remap up to
     /// t* = 2.5 (≈ 4 min); the verdict is the default (bicubic) remap's.
     LabFrame,
+    /// The Couette particle (thesis §3.5.2, 30×160) up to t* = 10 in the rotating frame, in the
+    /// lab frame on the fixed mesh and on a mesh that follows it (≈ 6 min); the verdict asks
+    /// the following mesh's r*(10) to be within 1e-3 of the rotating frame's.
+    CouetteFrame,
 }
 
 /// Benchmarks.
@@ -507,6 +511,47 @@ fn validate_particles(
                 }
             }
             println!("tolerance (default remap, fixed and following mesh): {LAB_FRAME_OMEGA_TOL}");
+        }
+        Study::CouetteFrame => {
+            use crate::validate::particles::{couette_frame_comparison, COUETTE_FOLLOW_TOL};
+            let runs = couette_frame_comparison(10.0);
+            let header: Vec<&str> = runs.iter().map(|r| r.label.as_str()).collect();
+            println!(
+                "Couette particle (thesis §3.5.2, 30×160, bicubic, Δt = 0.02): r* / ω* per run\n\n\
+                 | t* | {} |\n|---|{}",
+                header.join(" | "),
+                "---|".repeat(runs.len())
+            );
+            let n = runs.iter().map(|r| r.series.len()).min().unwrap_or(0);
+            // every 25th sample (sampled every 5 steps): t* = 0, 2.5, 5, …
+            for i in (0..n).step_by(25) {
+                let cells: Vec<String> = runs
+                    .iter()
+                    .map(|r| format!("{:.5} / {:.4}", r.series[i].1, r.series[i].2))
+                    .collect();
+                println!("| {:.1} | {} |", runs[0].series[i].0, cells.join(" | "));
+            }
+            println!();
+            for r in &runs {
+                if let Some(e) = &r.error {
+                    println!("{} stopped early: {e}", r.label);
+                    ok = false;
+                }
+            }
+            let end = |r: &crate::validate::particles::CouetteRun| r.series.last().map(|s| s.1);
+            if let (Some(reference), true) = (end(&runs[0]), ok) {
+                for (k, r) in runs.iter().enumerate().skip(1) {
+                    let d = end(r).unwrap_or(f64::NAN) - reference;
+                    println!(
+                        "{}: r*(end) − rotating frame = {d:+.5} ({:.0} s)",
+                        r.label, r.seconds
+                    );
+                    if k == 2 {
+                        ok &= d.abs() <= COUETTE_FOLLOW_TOL;
+                    }
+                }
+            }
+            println!("tolerance (following mesh): {COUETTE_FOLLOW_TOL}");
         }
         Study::StokesMms | Study::Couette => unreachable!("handled by validate"),
     }
