@@ -18,7 +18,6 @@ use crate::fem::element::{q1, q2_map, Q1_IN_Q2};
 use crate::fem::linsolve::{DirectSolver, SolveError, SolverKind};
 use crate::fem::sparse::{q1_pattern, SparseMatrix};
 use crate::mesh::{bounding_box, Axis, Mesh, Shape, Side};
-use crate::solver::viscoelastic::{StencilWeights, STENCIL_LEN};
 
 /// Newton tolerance of the point location, in reference coordinates. Round-off limits ξ to about
 /// ε|x|/h (7e-14 for |x| = 2, h = 0.013): a tolerance of 1e-13 failed there (300×75 channel,
@@ -102,6 +101,14 @@ pub enum AleError {
         want: usize,
     },
 }
+
+/// Most vertices one interpolation of the history uses (the 4×4 bicubic stencil).
+pub const STENCIL_LEN: usize = 16;
+
+/// Interpolation of a vertex field at a point: up to [`STENCIL_LEN`] vertices and their weights
+/// (the four vertices of the element with bilinear weights, a 3×3 vertex stencil with
+/// biquadratic ones, a 4×4 one with bicubic ones; unused entries have weight 0).
+pub type StencilWeights = ([usize; STENCIL_LEN], [f64; STENCIL_LEN]);
 
 /// The map of one step: interpolation of the fields at tⁿ and t^{n−1} at the pre-images of the
 /// vertices, and the mesh velocity at the Q2 nodes.

@@ -18,7 +18,7 @@ use std::time::Instant;
 use crate::fem::linsolve::{SolveError, SolverKind};
 use crate::mesh::{Mesh, Side};
 use crate::rheology::{Fluid, RheologyError, Sym2};
-use crate::solver::ale::extend_inside;
+use crate::solver::ale::{extend_inside, StencilWeights, STENCIL_LEN};
 use crate::solver::constitutive::{
     inactive_vertices, ConstitutiveError, LogConformationHistory, LogConformationTransport,
     TransportFlow, TransportTimings,
@@ -271,14 +271,6 @@ pub struct FlowState {
     /// Body force of the last flow solve.
     pub body_force: f64,
 }
-
-/// Most vertices one interpolation of the history uses (the 4×4 bicubic stencil).
-pub const STENCIL_LEN: usize = 16;
-
-/// Interpolation of a vertex field at a point: up to [`STENCIL_LEN`] vertices and their weights
-/// (the four vertices of the element with bilinear weights, a 3×3 vertex stencil with
-/// biquadratic ones, a 4×4 one with bicubic ones; unused entries have weight 0).
-pub type StencilWeights = ([usize; STENCIL_LEN], [f64; STENCIL_LEN]);
 
 /// How the history moves onto the current configuration (temporary ALE map, thesis §5.3.3):
 /// for every Q1 vertex x the interpolation at its pre-images xⁿ = Φₙ⁻¹(x) and
