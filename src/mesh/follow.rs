@@ -84,16 +84,6 @@ pub struct Follow {
 }
 
 impl Follow {
-    /// The typical grading for particles of radius `a`: core 1.5a, reach 6a (see the table in
-    /// the module documentation; clusters need a wider reach).
-    pub fn for_radius(a: f64, ratio: f64) -> Self {
-        Self {
-            ratio,
-            core: 1.5 * a,
-            reach: 6.0 * a,
-        }
-    }
-
     /// Element size in a core at `x` (inside the base axis): the base size there / ratio. (The
     /// smallest element of a refined axis is [`Axis::min_size`].)
     pub fn core_size(&self, base: &Axis, x: f64) -> f64 {
