@@ -12,7 +12,10 @@
 //!
 //! At the end time, an undecided case is: Couette `migrated` if |r* − r0*| ≥ [`MIGRATION_MIN`], else
 //! `steady` if ω* has met the steady test of rule 4 for its last [`STEADY_HOLD_STEPS`] steps, else
-//! `timeout` (a run too short to tell); cylinder channel `steady`; otherwise `timeout`.
+//! `timeout` (a run too short to tell); cylinder channel `steady`; confined shear with N ≥ 2 `string`
+//! if the particles have formed one chain for the last [`DRIFTING_STRING_HOLD`] time units t* (a
+//! string that translates, or whose ω* still wanders above the steady tolerance:
+//! `final_state.steady = false`; strings of rule 4 have `steady = true`); otherwise `timeout`.
 
 use serde_json::{json, Value};
 
@@ -31,6 +34,11 @@ pub use crate::particles::CONTACT_OVERLAP;
 /// Approach (in radii) of the end particles needed before a recovering Δx counts as `repel`, so that noise
 /// at the start is not a reversal.
 pub const MIN_APPROACH: f64 = 0.1;
+/// Time t* = tγ̇ for which the particles must have formed one chain at the end time to count as a
+/// (drifting) `string` without meeting the steady test: several times the ≈ 5–10 t* in which the
+/// thesis' strings form and settle (5.7.2), so that particles passing through a chain on their way
+/// apart do not count.
+pub const DRIFTING_STRING_HOLD: f64 = 20.0;
 /// Change in r* below which a Couette particle counts as `steady` rather than `migrated` at the end.
 pub const MIGRATION_MIN: f64 = 0.01;
 
@@ -106,6 +114,9 @@ pub struct Classifier {
     dx_min: f64,
     last_omega: Option<Vec<f64>>,
     steady_steps: u32,
+    /// Since when (t) the particles have formed one chain (confined shear, N ≥ 2).
+    #[serde(default)]
+    chained_since: Option<f64>,
     last: Option<Sample>,
     decided: Option<Outcome>,
 }
@@ -133,6 +144,7 @@ impl Classifier {
             dx_min: dx0.unwrap_or(0.0),
             last_omega: None,
             steady_steps: 0,
+            chained_since: None,
             last: None,
             decided: None,
         }
@@ -152,7 +164,10 @@ impl Classifier {
         let decision = self.decide(s);
         self.last = Some(s.clone());
         if let Some(kind) = decision {
-            let outcome = self.outcome(kind, s.t, None);
+            let mut outcome = self.outcome(kind, s.t, None);
+            if kind == OutcomeKind::String {
+                outcome.final_state["steady"] = json!(true);
+            }
             self.decided = Some(outcome.clone());
             return Some(outcome);
         }
@@ -193,9 +208,22 @@ impl Classifier {
                 }
             }
             Geometry::CylinderChannel { .. } => OutcomeKind::Steady,
-            Geometry::ConfinedShear { .. } => OutcomeKind::Timeout,
+            Geometry::ConfinedShear { .. } => {
+                let held = self
+                    .chained_since
+                    .is_some_and(|t0| (t - t0) * self.rate >= DRIFTING_STRING_HOLD);
+                if held {
+                    OutcomeKind::String
+                } else {
+                    OutcomeKind::Timeout
+                }
+            }
         };
-        self.outcome(kind, t, None)
+        let mut outcome = self.outcome(kind, t, None);
+        if kind == OutcomeKind::String {
+            outcome.final_state["steady"] = json!(false);
+        }
+        outcome
     }
 
     fn decide(&mut self, s: &Sample) -> Option<OutcomeKind> {
@@ -224,6 +252,15 @@ impl Classifier {
                 }
             }
         }
+        let chained = ps.len() >= 2
+            && chain_gaps(&centres, a, self.period)
+                .iter()
+                .all(|g| *g < CHAIN_GAP * a);
+        self.chained_since = if chained {
+            self.chained_since.or(Some(s.t))
+        } else {
+            None
+        };
         // Steady-state test on ω* between consecutive steps.
         let omega: Vec<f64> = ps.iter().map(|p| p.omega / self.rate).collect();
         let steady_now = self.last_omega.as_ref().is_some_and(|prev| {
@@ -237,10 +274,6 @@ impl Classifier {
         self.last_omega = Some(omega);
         let is_couette = matches!(self.geometry, Geometry::Couette { .. });
         if self.steady_steps >= STEADY_HOLD_STEPS && !is_couette && !ps.is_empty() {
-            let chained = ps.len() >= 2
-                && chain_gaps(&centres, a, self.period)
-                    .iter()
-                    .all(|g| *g < CHAIN_GAP * a);
             return Some(if chained {
                 OutcomeKind::String
             } else {

@@ -115,3 +115,46 @@ fn a_reported_divergence_carries_its_reason() {
     assert_eq!(o.final_state["reason"], "Newton did not converge");
     assert_eq!(c.finish().kind, OutcomeKind::Diverged);
 }
+
+/// Three particles in one chain (gaps 0.1a) that translate along x with ω* wandering by 1e-3 per
+/// step, never steady: `string` with `steady = false` at the end once the chain has held for
+/// [`DRIFTING_STRING_HOLD`]; `timeout` if it formed too late.
+#[test]
+fn a_chain_held_to_the_end_is_a_drifting_string() {
+    let spec = shear(3);
+    let a = spec.radius().unwrap();
+    let run = |formed_at: f64| {
+        let mut c = Classifier::new(&spec);
+        let steps = (spec.numerics.t_end / DT).round() as u64;
+        for step in 1..=steps {
+            let t = step as f64 * DT;
+            let chained = t >= formed_at;
+            let spacing = if chained { 2.1 * a } else { 5.0 * a };
+            let particles = (0..3)
+                .map(|k| ParticleState {
+                    x: (k as f64 - 1.0) * spacing - 1e-3 * t,
+                    y: 0.0,
+                    u: -1e-3,
+                    v: 0.0,
+                    omega: 0.1 + 1e-3 * (step % 2) as f64,
+                    theta: 0.0,
+                })
+                .collect();
+            let decided = c.push(&Sample { step, t, particles });
+            assert!(decided.is_none(), "decided early at t = {t}");
+        }
+        c.finish()
+    };
+    let o = run(30.0);
+    assert_eq!(o.kind, OutcomeKind::String, "{}", o.final_state);
+    assert_eq!(o.final_state["steady"], json!(false));
+    assert_eq!(o.string_length, Some(3));
+    assert!((o.mean_gap.unwrap() - 0.1).abs() < 1e-9);
+    // formed 15 time units before the end: not held long enough
+    assert_eq!(run(45.0).kind, OutcomeKind::Timeout);
+    // and a string of the ω criterion says it is steady
+    assert_eq!(
+        classify(OutcomeKind::String, &shear(3)).final_state["steady"],
+        json!(true)
+    );
+}
