@@ -474,31 +474,13 @@ fn validate_particles(
                     lab("bicubic", Some(2.0)),
                 ],
             );
-            let header: Vec<&str> = runs.iter().map(|r| r.label.as_str()).collect();
-            println!(
-                "Single particle (thesis §5.5, Y0/H = 0.1, 160×80, Δt = 0.02): ω* / V* per run\n\n\
-                 | t* | {} |\n|---|{}",
-                header.join(" | "),
-                "---|".repeat(runs.len())
+            // every 15th sample: t* = 0, 0.3, 0.6, …
+            ok &= print_frame_runs(
+                "Single particle (thesis §5.5, Y0/H = 0.1, 160×80, Δt = 0.02): ω* / V* per run",
+                &runs,
+                15,
+                |a, b| format!("{a:.4} / {b:+.5}"),
             );
-            let n = runs.iter().map(|r| r.series.len()).min().unwrap_or(0);
-            // every 15th step: t* = 0, 0.3, 0.6, …
-            for i in (0..n).step_by(15) {
-                let cells: Vec<String> = runs
-                    .iter()
-                    .map(|r| format!("{:.4} / {:+.5}", r.series[i].1, r.series[i].2))
-                    .collect();
-                println!("| {:.2} | {} |", runs[0].series[i].0, cells.join(" | "));
-            }
-            println!();
-            for r in runs.iter().filter(|r| r.error.is_some()) {
-                println!(
-                    "{} stopped early: {}",
-                    r.label,
-                    r.error.as_deref().unwrap_or("")
-                );
-                ok = false;
-            }
             for (k, r) in runs.iter().enumerate().skip(1) {
                 let d = max_omega_difference(r, &runs[0]);
                 println!(
@@ -515,30 +497,14 @@ fn validate_particles(
         Study::CouetteFrame => {
             use crate::validate::particles::{couette_frame_comparison, COUETTE_FOLLOW_TOL};
             let runs = couette_frame_comparison(10.0);
-            let header: Vec<&str> = runs.iter().map(|r| r.label.as_str()).collect();
-            println!(
-                "Couette particle (thesis §3.5.2, 30×160, bicubic, Δt = 0.02): r* / ω* per run\n\n\
-                 | t* | {} |\n|---|{}",
-                header.join(" | "),
-                "---|".repeat(runs.len())
+            // every 25th sample (sampled every 5 steps): t* = 0, 0.5, 1, …
+            ok &= print_frame_runs(
+                "Couette particle (thesis §3.5.2, 30×160, bicubic, Δt = 0.02): r* / ω* per run",
+                &runs,
+                25,
+                |a, b| format!("{a:.5} / {b:.4}"),
             );
-            let n = runs.iter().map(|r| r.series.len()).min().unwrap_or(0);
-            // every 25th sample (sampled every 5 steps): t* = 0, 2.5, 5, …
-            for i in (0..n).step_by(25) {
-                let cells: Vec<String> = runs
-                    .iter()
-                    .map(|r| format!("{:.5} / {:.4}", r.series[i].1, r.series[i].2))
-                    .collect();
-                println!("| {:.1} | {} |", runs[0].series[i].0, cells.join(" | "));
-            }
-            println!();
-            for r in &runs {
-                if let Some(e) = &r.error {
-                    println!("{} stopped early: {e}", r.label);
-                    ok = false;
-                }
-            }
-            let end = |r: &crate::validate::particles::CouetteRun| r.series.last().map(|s| s.1);
+            let end = |r: &crate::validate::particles::FrameRun| r.series.last().map(|s| s.1);
             if let (Some(reference), true) = (end(&runs[0]), ok) {
                 for (k, r) in runs.iter().enumerate().skip(1) {
                     let d = end(r).unwrap_or(f64::NAN) - reference;
@@ -561,6 +527,39 @@ fn validate_particles(
     } else {
         ExitCode::FAILURE
     })
+}
+
+/// Prints the runs of a frame comparison as a markdown table (every `every`-th sample, the two
+/// quantities by `cell`) and the runs that stopped early; false if one did.
+fn print_frame_runs(
+    title: &str,
+    runs: &[crate::validate::particles::FrameRun],
+    every: usize,
+    cell: impl Fn(f64, f64) -> String,
+) -> bool {
+    let header: Vec<&str> = runs.iter().map(|r| r.label.as_str()).collect();
+    println!(
+        "{title}\n\n| t* | {} |\n|---|{}",
+        header.join(" | "),
+        "---|".repeat(runs.len())
+    );
+    let n = runs.iter().map(|r| r.series.len()).min().unwrap_or(0);
+    for i in (0..n).step_by(every) {
+        let cells: Vec<String> = runs
+            .iter()
+            .map(|r| cell(r.series[i].1, r.series[i].2))
+            .collect();
+        println!("| {:.2} | {} |", runs[0].series[i].0, cells.join(" | "));
+    }
+    println!();
+    let mut ok = true;
+    for r in runs {
+        if let Some(e) = &r.error {
+            println!("{} stopped early: {e}", r.label);
+            ok = false;
+        }
+    }
+    ok
 }
 
 /// Element sizes of `xpflow validate cylinder` without `--h`: the Newtonian study's sequence, or

@@ -6,7 +6,7 @@ use std::path::Path;
 
 use crate::config::CaseSpec;
 use crate::observe::outcome::{Classifier, OutcomeKind};
-use crate::observe::{CaseObserver, Control, FieldSnapshot, Sample};
+use crate::observe::{CaseObserver, Control, FieldSnapshot, ParticleState, Sample};
 use crate::sweep::solver_runner::SolverRunner;
 use crate::sweep::{CaseRunner, RunStatus};
 
@@ -130,12 +130,14 @@ pub fn two_particles_stokes(
 /// apart and fails if the remap or the ALE map loses accuracy.
 pub const LAB_FRAME_OMEGA_TOL: f64 = 0.05;
 
-/// ω*(t*) and V*(t*) of one run of the lab-frame comparison.
+/// One run of a frame comparison ([`lab_frame_comparison`], [`couette_frame_comparison`]): two
+/// quantities of particle 0 at every sample.
 #[derive(Debug, Clone)]
 pub struct FrameRun {
-    /// What was run (frame and remap).
+    /// What was run (frame, remap, mesh).
     pub label: String,
-    /// (t*, ω*, V*) of particle 0 at every sample.
+    /// (t, q1, q2) at every sample: (t*, ω*, V*) in the lab-frame comparison, (t*, r*, ω*) in
+    /// the Couette one.
     pub series: Vec<(f64, f64, f64)>,
     /// `None` if the run reached its end time, else why it stopped.
     pub error: Option<String>,
@@ -143,12 +145,16 @@ pub struct FrameRun {
     pub seconds: f64,
 }
 
-struct Series(Vec<(f64, f64, f64)>);
+/// Collects `pick(particle 0)` with the time of every sample.
+struct Series<F: Fn(&ParticleState) -> (f64, f64)> {
+    pick: F,
+    series: Vec<(f64, f64, f64)>,
+}
 
-impl CaseObserver for Series {
+impl<F: Fn(&ParticleState) -> (f64, f64)> CaseObserver for Series<F> {
     fn on_step(&mut self, s: &Sample) -> Control {
-        let p = &s.particles[0];
-        self.0.push((s.t, p.omega, p.v));
+        let (a, b) = (self.pick)(&s.particles[0]);
+        self.series.push((s.t, a, b));
         Control::Continue
     }
     fn snapshot_due(&self, _step: u64) -> bool {
@@ -224,21 +230,33 @@ pub fn lab_frame_comparison(mesh: [usize; 2], t_end: f64, lab: &[LabRun]) -> Vec
     );
     runs.map(|(label, run, co_moving)| {
         let spec = single_particle_run(mesh, t_end, &run, co_moving);
-        let t0 = std::time::Instant::now();
-        let mut obs = Series(Vec::new());
-        let res = SolverRunner.run(&spec, 1, &mut obs);
-        let error = match res.status {
-            RunStatus::Finished => None,
-            RunStatus::Diverged { reason } | RunStatus::Failed { error: reason } => Some(reason),
-        };
-        FrameRun {
-            label,
-            series: obs.0,
-            error,
-            seconds: t0.elapsed().as_secs_f64(),
-        }
+        frame_run(label, &spec, |p| (p.omega, p.v))
     })
     .collect()
+}
+
+/// Runs `spec` through the sweep runner, collecting `pick(particle 0)` at every sample.
+fn frame_run(
+    label: String,
+    spec: &CaseSpec,
+    pick: impl Fn(&ParticleState) -> (f64, f64),
+) -> FrameRun {
+    let t0 = std::time::Instant::now();
+    let mut obs = Series {
+        pick,
+        series: Vec::new(),
+    };
+    let res = SolverRunner.run(spec, 1, &mut obs);
+    let error = match res.status {
+        RunStatus::Finished => None,
+        RunStatus::Diverged { reason } | RunStatus::Failed { error: reason } => Some(reason),
+    };
+    FrameRun {
+        label,
+        series: obs.series,
+        error,
+        seconds: t0.elapsed().as_secs_f64(),
+    }
 }
 
 /// Largest |ω*_a − ω*_b| over the samples the two runs share.
@@ -252,49 +270,16 @@ pub fn max_omega_difference(a: &FrameRun, b: &FrameRun) -> f64 {
 }
 
 /// Largest |r*(10) − r*_rotating(10)| accepted from the lab-frame Couette run on a mesh that
-/// follows the particle (30×160): the fixed mesh is 3.8e-3 off, the following one measured
-/// 1.2e-4 (docs/validation.md); 1e-3 is 6 % of the migration distance r*(10) − r0* = 0.0156.
+/// follows the particle (30×160): the fixed mesh is 3.5e-3 off, the following one measured
+/// 1.8e-4 (docs/validation.md); 1e-3 is 6 % of the migration distance r*(10) − r0* = 0.0159.
 pub const COUETTE_FOLLOW_TOL: f64 = 1e-3;
-
-/// r*(t*) of particle 0 in one run of [`couette_frame_comparison`].
-#[derive(Debug, Clone)]
-pub struct CouetteRun {
-    /// What was run.
-    pub label: String,
-    /// (t*, r*, ω*) at every sample.
-    pub series: Vec<(f64, f64, f64)>,
-    /// `None` if the run reached its end time, else why it stopped.
-    pub error: Option<String>,
-    /// Wall-clock seconds.
-    pub seconds: f64,
-}
-
-struct RadialSeries {
-    r1: f64,
-    gap: f64,
-    series: Vec<(f64, f64, f64)>,
-}
-
-impl CaseObserver for RadialSeries {
-    fn on_step(&mut self, s: &Sample) -> Control {
-        let p = &s.particles[0];
-        let r_star = (p.x.hypot(p.y) - self.r1) / self.gap;
-        self.series.push((s.t, r_star, p.omega));
-        Control::Continue
-    }
-    fn snapshot_due(&self, _step: u64) -> bool {
-        false
-    }
-    fn on_snapshot(&mut self, _s: &FieldSnapshot) {}
-    fn checkpoint(&mut self) {}
-}
 
 /// The thesis §3.5.2 Couette particle (R2/R1 = 4, ε = 4/15, r0* = 1/2, Wi = 1/3, α = 0.01,
 /// β = 0.1, Δt = 0.02, bicubic remap) on 30×160 up to `t_end` (t* = tω̄): in the frame rotating
 /// with its undisturbed orbit (Ω = 0.104, the particle nearly at rest on the mesh: the
 /// reference), in the lab frame on the fixed mesh, and in the lab frame on a mesh that follows
 /// it (θ ×2, r ×1.5: `sweeps/couette_follow.toml`).
-pub fn couette_frame_comparison(t_end: f64) -> Vec<CouetteRun> {
+pub fn couette_frame_comparison(t_end: f64) -> Vec<FrameRun> {
     let numerics = |extra: serde_json::Value| {
         let mut n = serde_json::json!({
             "mesh": [30, 160], "remap": "bicubic", "dt": 0.02, "t_end": t_end
@@ -327,25 +312,10 @@ pub fn couette_frame_comparison(t_end: f64) -> Vec<CouetteRun> {
             });
             let spec = CaseSpec::from_value(v)
                 .expect("the Couette comparison's case spec is valid by construction");
-            let t0 = std::time::Instant::now();
-            let mut obs = RadialSeries {
-                r1: 1.0,
-                gap: 3.0,
-                series: Vec::new(),
-            };
-            let res = SolverRunner.run(&spec, 1, &mut obs);
-            let error = match res.status {
-                RunStatus::Finished => None,
-                RunStatus::Diverged { reason } | RunStatus::Failed { error: reason } => {
-                    Some(reason)
-                }
-            };
-            CouetteRun {
-                label: label.to_string(),
-                series: obs.series,
-                error,
-                seconds: t0.elapsed().as_secs_f64(),
-            }
+            // r* = (r − R1)/(R2 − R1), ω* = ω/ω̄ (ω̄ = 1)
+            frame_run(label.to_string(), &spec, |p| {
+                ((p.x.hypot(p.y) - 1.0) / 3.0, p.omega)
+            })
         })
         .collect()
 }
