@@ -190,13 +190,11 @@ pub fn moving(
     coupled_g: bool,
     follow: Option<f64>,
 ) -> Result<MovingBench, crate::solver::moving::MovingError> {
-    use crate::mesh::follow::Follow;
-    use crate::solver::moving::{
-        ComputationalMesh, FollowingMesh, MovingError, MovingParticles, ShearDomain,
-    };
+    use crate::mesh::follow::{Follow, FollowingMesh};
+    use crate::solver::moving::{ComputationalMesh, MovingError, MovingParticles, ShearDomain};
     use crate::solver::viscoelastic::ViscoelasticParams;
     let (h, l, a) = (1.0, 4.0, 0.1);
-    let mesh = crate::solver::motion::channel_mesh(h, l, [nx, ny], 1.0, 1.0);
+    let mesh = crate::mesh::Mesh::channel(h, l, [nx, ny], 1.0, 1.0);
     let spacing = if n <= 7 { 0.5 } else { l / n as f64 };
     let x0: Vec<[f64; 2]> = (0..n)
         .map(|i| {

@@ -5,6 +5,7 @@ use serde::{Deserialize, Serialize};
 
 use crate::geometry::layout;
 use crate::mesh::follow::Follow;
+use crate::mesh::{Axis, FollowingMesh, Mesh, Shape};
 
 /// One fully specified simulation case. Build it with [`CaseSpec::from_value`] (or via a sweep file) so that
 /// it is validated; afterwards treat it as immutable and pass it as `&CaseSpec`.
@@ -395,6 +396,37 @@ impl CaseSpec {
     /// Particle radius a, or `None` without particles.
     pub fn radius(&self) -> Option<f64> {
         self.particles.as_ref().map(|p| p.radius)
+    }
+
+    /// The case's computational mesh before any refinement around particles: the confined-shear
+    /// channel ([`Mesh::channel`]) or the Couette annulus (`numerics.mesh` = [radial,
+    /// azimuthal]); `None` for the cylinder channel (built by its validation).
+    pub fn base_mesh(&self) -> Option<Mesh> {
+        let n = &self.numerics;
+        match self.geometry {
+            Geometry::ConfinedShear { h, l, .. } => {
+                Some(Mesh::channel(h, l, n.mesh, n.grading, n.grading_x))
+            }
+            Geometry::Couette { r1, r2, .. } => Some(Mesh::annulus(
+                n.mesh[1],
+                Axis::centred(r1, r2, n.mesh[0], n.grading),
+            )),
+            Geometry::CylinderChannel { .. } => None,
+        }
+    }
+
+    /// The mesh that follows the particles (`numerics.follow` on [`base_mesh`](Self::base_mesh);
+    /// an annulus' θ axis refined by angles: arcs at the first particle's start radius), or
+    /// `None` without `numerics.follow`.
+    pub fn following_mesh(&self) -> Option<FollowingMesh> {
+        let (f, a, base) = (self.numerics.follow?, self.radius()?, self.base_mesh()?);
+        let x0 = self.initial_positions();
+        let arc = match base.shape {
+            Shape::Annulus => Some(x0.first()?[0].hypot(x0.first()?[1])),
+            Shape::Rectangle => None,
+        };
+        let [x, y] = f.axes(a, arc);
+        Some(FollowingMesh { base, x, y })
     }
 
     /// Initial particle centres in the order the particles are numbered everywhere else.

@@ -6,8 +6,6 @@ use serde_json::Value;
 use super::case::{CaseSpec, FrameChoice, Geometry, HistoryRemap, Layout, Model, StressCoupling};
 use super::error::{json_path_at_line, SpecError};
 use crate::geometry::layout;
-use crate::mesh::follow::follow_axis;
-use crate::mesh::Axis;
 
 /// Particles may touch each other or a wall initially (the thesis' δ = 2 set-up touches the walls, 5.7.3);
 /// only overlaps deeper than this fraction of the radius are rejected, to forgive decimal rounding.
@@ -153,58 +151,18 @@ impl CaseSpec {
     /// A mesh that follows the particles must have room for its cores around the initial
     /// positions (after the particles are known to be valid and inside the domain).
     fn validate_follow_room(&self) -> Result<(), SpecError> {
-        let (Some(f), Some(a)) = (&self.numerics.follow, self.radius()) else {
+        let Some(follow) = self.following_mesh() else {
             return Ok(());
         };
-        let n = &self.numerics;
-        let x0 = self.initial_positions();
-        let two_pi = 2.0 * std::f64::consts::PI;
-        // (base axis, period, the centres' coordinates along it) along and across the flow
-        let (along, across, arc) = match self.geometry {
-            Geometry::ConfinedShear { h, l, .. } => (
-                (
-                    Axis::centred(-0.5 * l, 0.5 * l, n.mesh[0], n.grading_x),
-                    Some(l),
-                    x0.iter().map(|c| c[0]).collect::<Vec<_>>(),
-                ),
-                (
-                    Axis::centred(-0.5 * h, 0.5 * h, n.mesh[1], n.grading),
-                    None,
-                    x0.iter().map(|c| c[1]).collect::<Vec<_>>(),
-                ),
-                None,
-            ),
-            // numerics.mesh is [radial, azimuthal]; θ runs clockwise from +x
-            Geometry::Couette { r1, r2, .. } => (
-                (
-                    Axis::uniform(0.0, two_pi, n.mesh[1]),
-                    Some(two_pi),
-                    x0.iter().map(|c| (-c[1]).atan2(c[0])).collect(),
-                ),
-                (
-                    Axis::centred(r1, r2, n.mesh[0], n.grading),
-                    None,
-                    x0.iter().map(|c| c[0].hypot(c[1])).collect(),
-                ),
-                x0.first().map(|c| c[0].hypot(c[1])),
-            ),
-            Geometry::CylinderChannel { .. } => return Ok(()),
-        };
-        let [spec_along, spec_across] = f.axes(a, arc);
-        for (direction, (base, period, centres), spec) in [
-            ("along", along, spec_along),
-            ("across", across, spec_across),
-        ] {
-            if let Err(e) = follow_axis(&base, &centres, &spec, period) {
-                return Err(SpecError::new(
+        follow
+            .mesh_at(&self.initial_positions())
+            .map(|_| ())
+            .map_err(|e| {
+                SpecError::new(
                     "numerics.follow",
-                    format!(
-                        "no room to refine {direction} the flow around the initial positions: {e}"
-                    ),
-                ));
-            }
-        }
-        Ok(())
+                    format!("no room to refine the mesh around the initial positions, {e}"),
+                )
+            })
     }
 
     fn validate_numerics(&self) -> Result<(), SpecError> {

@@ -65,7 +65,50 @@
 //! (q = 1.23). Between walls the component is often the whole channel (reach > H/2): the cores of
 //! all particles must fit with the rest at most `COARSEST` times coarser.
 
-use super::Axis;
+use super::{Axis, Mesh, Shape};
+
+/// A computational mesh that follows the particles (a tensor-product variant of thesis
+/// §3.3.4): the vertex columns and rows of `base` near each particle are moved every step so
+/// that the elements around it are refined (see [`follow_axis`]); topology, numbering and every
+/// vertex away from the particles stay as in `base`. On an annulus the columns are the θ axis
+/// (`x`, lengths in radians) and the rows the radial one (`y`).
+#[derive(Debug, Clone)]
+pub struct FollowingMesh {
+    /// The mesh the refinement is applied to.
+    pub base: Mesh,
+    /// Refinement of the columns (along the flow: x or θ).
+    pub x: Follow,
+    /// Refinement of the rows (across the flow: y or r).
+    pub y: Follow,
+}
+
+impl FollowingMesh {
+    /// The mesh refined around particles at `centres` (a periodic axis wraps with the base's
+    /// period).
+    ///
+    /// # Errors
+    /// The reason, naming the direction, when an axis has no room for the refinement.
+    pub fn mesh_at(&self, centres: &[[f64; 2]]) -> Result<Mesh, String> {
+        let base = &self.base;
+        let period = base
+            .periodic
+            .then(|| base.ax.vertices[base.ax.len()] - base.ax.vertices[0]);
+        // the axes' coordinates of the centres: (x, y), or (θ, r) on an annulus (θ clockwise
+        // from +x, as the mesh runs)
+        let (cx, cy): (Vec<f64>, Vec<f64>) = match base.shape {
+            Shape::Rectangle => centres.iter().map(|c| (c[0], c[1])).unzip(),
+            Shape::Annulus => centres
+                .iter()
+                .map(|c| ((-c[1]).atan2(c[0]), c[0].hypot(c[1])))
+                .unzip(),
+        };
+        let ax = follow_axis(&base.ax, &cx, &self.x, period)
+            .map_err(|e| format!("along the flow: {e}"))?;
+        let ay = follow_axis(&base.ay, &cy, &self.y, None)
+            .map_err(|e| format!("across the flow: {e}"))?;
+        Ok(base.with_axes(ax, ay))
+    }
+}
 
 /// Largest element size allowed in a zone by [`follow_axis`], relative to the base size: the
 /// minimum density is 1/4. (The smoothest grading of the typical parameters stays below it, see
@@ -769,6 +812,15 @@ mod tests {
     /// reach 0.6 (1.5a and 6a).
     const L: f64 = 4.0;
 
+    /// Largest distance between the vertices of two axes of one element count.
+    fn max_shift(a: &Axis, b: &Axis) -> f64 {
+        a.vertices
+            .iter()
+            .zip(&b.vertices)
+            .map(|(x, y)| (x - y).abs())
+            .fold(0.0, f64::max)
+    }
+
     fn channel() -> Axis {
         Axis::uniform(-0.5 * L, 0.5 * L, 200)
     }
@@ -897,12 +949,7 @@ mod tests {
             for shift in [L, -L, 2.0 * L] {
                 let moved = [centres[0] + shift, centres[1]];
                 let b = follow_axis(&channel(), &moved, &spec(2.0), Some(L)).unwrap();
-                let worst = a
-                    .vertices
-                    .iter()
-                    .zip(&b.vertices)
-                    .map(|(x, y)| (x - y).abs())
-                    .fold(0.0, f64::max);
+                let worst = max_shift(&a, &b);
                 assert!(worst < 1e-13, "{centres:?} shifted by {shift}: {worst:e}");
             }
         }
@@ -994,12 +1041,7 @@ mod tests {
                         let mut moved = centres.to_vec();
                         moved[k] += sign * delta;
                         let b = follow_axis(&channel(), &moved, &spec, period).unwrap();
-                        let d = a
-                            .vertices
-                            .iter()
-                            .zip(&b.vertices)
-                            .map(|(x, y)| (x - y).abs())
-                            .fold(0.0, f64::max);
+                        let d = max_shift(&a, &b);
                         worst = worst.max(d / delta);
                     }
                 }
@@ -1050,12 +1092,7 @@ mod tests {
         while x > 0.2 {
             x -= step;
             let now = at(x).unwrap().axis;
-            let d = now
-                .vertices
-                .iter()
-                .zip(&last.vertices)
-                .map(|(a, b)| (a - b).abs())
-                .fold(0.0, f64::max);
+            let d = max_shift(&now, &last);
             lipschitz = lipschitz.max(d / step);
             q = q.max(neighbour_ratio(&now, true));
             last = now;

@@ -5,5 +5,5 @@ pub mod follow;
 pub mod structured;
 
 pub use axis::Axis;
-pub use follow::{follow_axis, Follow, FollowError};
+pub use follow::{follow_axis, Follow, FollowError, FollowingMesh};
 pub use structured::{bounding_box, Mesh, Shape, Side};

@@ -77,6 +77,17 @@ impl Mesh {
         Self::build(Shape::Rectangle, ax, ay, periodic)
     }
 
+    /// The periodic channel H × L (centred at the origin) with `mesh` = [along, across] elements,
+    /// graded along it by `grading_x` (finest at x = 0) and across it by `grading` (finest at the
+    /// centre line): the mesh of every confined-shear case, Stokes or viscoelastic.
+    pub fn channel(h: f64, l: f64, mesh: [usize; 2], grading: f64, grading_x: f64) -> Self {
+        Self::rectangle(
+            Axis::centred(-0.5 * l, 0.5 * l, mesh[0], grading_x),
+            Axis::centred(-0.5 * h, 0.5 * h, mesh[1], grading),
+            true,
+        )
+    }
+
     /// Annulus R1 ≤ r ≤ R2 with `n_theta` uniform elements around and the radial axis `ar`.
     pub fn annulus(n_theta: usize, ar: Axis) -> Self {
         let at = Axis::uniform(0.0, 2.0 * std::f64::consts::PI, n_theta);

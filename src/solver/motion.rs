@@ -5,7 +5,7 @@
 //! y = ±H/2 moving at ±U_w/2 (thesis §5.6.1).
 
 use crate::fem::linsolve::SolverKind;
-use crate::mesh::{Axis, Mesh, Side};
+use crate::mesh::{Mesh, Side};
 use crate::particles::{correct, find_contact, predict, Contact, RigidState, CONTACT_OVERLAP};
 use crate::rheology::Sym2;
 use crate::solver::cutcells::{compute_cuts, CutError};
@@ -109,22 +109,11 @@ fn wrap(x: f64, l: f64) -> f64 {
     x - l * ((x + 0.5 * l) / l).floor()
 }
 
-/// The periodic channel H × L (centred at the origin) with `mesh` = [along, across] elements,
-/// graded along it by `grading_x` (finest at x = 0) and across it by `grading` (finest at the
-/// centre line): the mesh of every confined-shear case, Stokes or viscoelastic.
-pub fn channel_mesh(h: f64, l: f64, mesh: [usize; 2], grading: f64, grading_x: f64) -> Mesh {
-    Mesh::rectangle(
-        Axis::centred(-0.5 * l, 0.5 * l, mesh[0], grading_x),
-        Axis::centred(-0.5 * h, 0.5 * h, mesh[1], grading),
-        true,
-    )
-}
-
 impl ShearCase {
     /// The mesh of the channel: graded along it by `grading_x` (finest at x = 0), across it by
     /// `grading` (finest at the centre line).
     pub fn build_mesh(&self) -> Mesh {
-        channel_mesh(self.h, self.l, self.mesh, self.grading, self.grading_x)
+        Mesh::channel(self.h, self.l, self.mesh, self.grading, self.grading_x)
     }
 
     /// Velocities (U, ω) of free particles at centres `x` (ω counter-clockwise positive) and the flow.

@@ -12,8 +12,8 @@
 
 use std::time::Instant;
 
-use crate::mesh::follow::{follow_axis, Follow};
-use crate::mesh::{Axis, Mesh, Shape, Side};
+pub use crate::mesh::follow::FollowingMesh;
+use crate::mesh::{Axis, Mesh, Side};
 use crate::particles::{
     correct, find_annulus_contact, find_contact, predict, Contact, RigidState, CONTACT_OVERLAP,
 };
@@ -223,47 +223,6 @@ impl From<FollowingMesh> for ComputationalMesh {
     }
 }
 
-/// A computational mesh that follows the particles (a tensor-product variant of thesis
-/// §3.3.4): the vertex columns and rows of `base` near each particle are moved every step so
-/// that the elements around it are refined (see [`follow_axis`]); topology, numbering and every
-/// vertex away from the particles stay as in `base`. On an annulus the columns are the θ axis
-/// (`x`, lengths in radians) and the rows the radial one (`y`).
-#[derive(Debug, Clone)]
-pub struct FollowingMesh {
-    /// The mesh the refinement is applied to (a rectangle).
-    pub base: Mesh,
-    /// Refinement of the columns around the particles' x.
-    pub x: Follow,
-    /// Refinement of the rows around the particles' y.
-    pub y: Follow,
-}
-
-impl FollowingMesh {
-    /// The mesh refined around particles at `centres` (`period`: of a periodic x-axis).
-    ///
-    /// # Errors
-    /// The reason when an axis has no room for the refinement.
-    pub fn mesh_at(&self, centres: &[[f64; 2]], period: Option<f64>) -> Result<Mesh, String> {
-        // the axes' coordinates of the centres: (x, y), or (θ, r) on an annulus (θ clockwise
-        // from +x, as the mesh runs)
-        let (cx, cy, period): (Vec<f64>, Vec<f64>, _) = match self.base.shape {
-            Shape::Rectangle => (
-                centres.iter().map(|c| c[0]).collect(),
-                centres.iter().map(|c| c[1]).collect(),
-                period,
-            ),
-            Shape::Annulus => (
-                centres.iter().map(|c| (-c[1]).atan2(c[0])).collect(),
-                centres.iter().map(|c| c[0].hypot(c[1])).collect(),
-                Some(2.0 * std::f64::consts::PI),
-            ),
-        };
-        let ax = follow_axis(&self.base.ax, &cx, &self.x, period).map_err(|e| e.to_string())?;
-        let ay = follow_axis(&self.base.ay, &cy, &self.y, None).map_err(|e| e.to_string())?;
-        Ok(self.base.with_axes(ax, ay))
-    }
-}
-
 /// Wall-clock seconds of the particle-specific phases of one step (the flow and stress phases
 /// are in [`StepReport::timings`]).
 #[derive(Debug, Clone, Copy, Default)]
@@ -350,7 +309,7 @@ impl<D: Domain> MovingParticles<D> {
             ComputationalMesh::Fixed(mesh) => (mesh, None),
             ComputationalMesh::Following(f) => {
                 let mesh = f
-                    .mesh_at(&x0, domain.period())
+                    .mesh_at(&x0)
                     .map_err(|reason| MovingError::Follow { step: 0, reason })?;
                 (mesh, Some(f))
             }
@@ -445,7 +404,7 @@ impl<D: Domain> MovingParticles<D> {
         // the computational mesh of the coming step: refined around X̂ⁿ⁺¹ if it follows them
         let onto = match &self.follow {
             Some(f) => Some(
-                f.mesh_at(&x_pred, self.domain.period())
+                f.mesh_at(&x_pred)
                     .map_err(|reason| MovingError::Follow { step, reason })?,
             ),
             None => None,
@@ -583,7 +542,7 @@ impl<D: Domain> MovingParticles<D> {
         // a mesh that follows the particles is a function of the positions the fields are at
         let mesh = match &self.follow {
             Some(f) => Some(
-                f.mesh_at(&cp.fields_at, self.domain.period())
+                f.mesh_at(&cp.fields_at)
                     .map_err(|reason| MovingError::Follow { step, reason })?,
             ),
             None => None,

@@ -1361,6 +1361,15 @@ mod tests {
         Axis { vertices }
     }
 
+    /// `mesh` graded around the test particle: columns 13..=18 and rows 6..=9 move, elements of
+    /// the fluid base among them.
+    fn graded_around_the_particle(mesh: &Mesh) -> Mesh {
+        mesh.with_axes(
+            squeezed(&mesh.ax, 14, 18, 0.0, 0.8),
+            squeezed(&mesh.ay, 7, 9, 0.1, 0.8),
+        )
+    }
+
     /// Largest difference of velocity, pressure and rigid velocities relative to the largest of
     /// them in `b`.
     fn rel_diff(a: &StokesSolution, b: &StokesSolution) -> f64 {
@@ -1378,11 +1387,7 @@ mod tests {
         let mut st = fresh(&mesh, c);
         // builds the fluid base on the uniform mesh
         let before = solve_at(&mut st);
-        // a grading around the particle moves columns 13..=18 and rows 6..=9, base elements too
-        let graded = mesh.with_axes(
-            squeezed(&mesh.ax, 14, 18, 0.0, 0.8),
-            squeezed(&mesh.ay, 7, 9, 0.1, 0.8),
-        );
+        let graded = graded_around_the_particle(&mesh);
         st.set_mesh(graded.clone());
         moved(&mut st, c);
         let a = solve_at(&mut st);
@@ -1401,10 +1406,7 @@ mod tests {
         let c = [0.013, 0.101];
         let mut st = fresh(&mesh, c);
         let _ = solve_at(&mut st);
-        let graded = mesh.with_axes(
-            squeezed(&mesh.ax, 14, 18, 0.0, 0.8),
-            squeezed(&mesh.ay, 7, 9, 0.1, 0.8),
-        );
+        let graded = graded_around_the_particle(&mesh);
         st.set_mesh(graded);
         moved(&mut st, c);
         let _ = solve_at(&mut st);

@@ -10,7 +10,7 @@
 
 use crate::config::{CaseSpec, Geometry, HistoryRemap, StressCoupling};
 use crate::fem::element::{q1, Q2_NODES};
-use crate::mesh::{Axis, Mesh, Shape};
+use crate::mesh::Mesh;
 use crate::observe::{CaseObserver, Control, FieldSnapshot, NodalField, ParticleState, Sample};
 use crate::particles::RigidState;
 use crate::rheology::Sym2;
@@ -18,10 +18,10 @@ use crate::solver::ale::Remap;
 use crate::solver::constitutive_stress::Coupling;
 use crate::solver::couette::CouetteGeometry;
 use crate::solver::cutcells::level_set;
-use crate::solver::motion::{channel_mesh, FlowFields, MotionEnd, ShearCase};
+use crate::solver::motion::{FlowFields, MotionEnd, ShearCase};
 use crate::solver::moving::{
-    ComputationalMesh, Domain, FollowingMesh, MovingCheckpoint, MovingEnd, MovingParticles,
-    RotatingCouette, ShearDomain,
+    ComputationalMesh, Domain, MovingCheckpoint, MovingEnd, MovingParticles, RotatingCouette,
+    ShearDomain,
 };
 use crate::solver::rigid::{Motion, Particle};
 use crate::solver::viscoelastic::ViscoelasticParams;
@@ -287,8 +287,9 @@ impl CaseRunner for SolverRunner {
         let viscoelastic = case.relaxation_time() > 0.0;
         match case.geometry {
             Geometry::ConfinedShear { h, l, wall_speed } if viscoelastic => {
-                let n = &case.numerics;
-                let mesh = channel_mesh(h, l, n.mesh, n.grading, n.grading_x);
+                let Some(mesh) = case.base_mesh() else {
+                    unreachable!("a confined-shear case has a mesh")
+                };
                 // a frame translating at U_f: walls at −U_f ± U_w/2
                 let domain = ShearDomain {
                     h,
@@ -307,10 +308,9 @@ impl CaseRunner for SolverRunner {
                     Ok(g) => g,
                     Err(e) => return failed(e.to_string()),
                 };
-                // numerics.mesh is [radial, azimuthal]
-                let [n_r, n_theta] = case.numerics.mesh;
-                let mesh =
-                    Mesh::annulus(n_theta, Axis::centred(r1, r2, n_r, case.numerics.grading));
+                let Some(mesh) = case.base_mesh() else {
+                    unreachable!("a Couette case has a mesh")
+                };
                 let domain = RotatingCouette {
                     geometry: g,
                     frame: Frame::of(case).spin(),
@@ -403,13 +403,8 @@ fn run_moving<D: Domain>(
     };
     let period = domain.period();
     let frame = Frame::of(case);
-    let mesh: ComputationalMesh = match case.numerics.follow {
-        Some(f) => {
-            // an annulus' θ axis is refined by angles: arcs at the first particle's start radius
-            let arc = (mesh.shape == Shape::Annulus).then(|| x0[0][0].hypot(x0[0][1]));
-            let [x, y] = f.axes(a, arc);
-            FollowingMesh { base: mesh, x, y }.into()
-        }
+    let mesh: ComputationalMesh = match case.following_mesh() {
+        Some(follow) => follow.into(),
         None => mesh.into(),
     };
     let built = MovingParticles::free(mesh, params, domain, x0, a, cut);
