@@ -171,16 +171,57 @@ pub struct MovingBench {
     pub peak_rss_mb: Option<f64>,
 }
 
-/// One viscoelastic time step with `n` free particles in confined shear flow (thesis §5.7:
-/// H = 1, L = 4, a = 0.1, Giesekus Wi = 1, α = 0.01, β = 0.1, Δt = 0.01) on an `nx × ny` mesh:
-/// particles on the line through the origin of slope −0.2 spaced 0.5 apart (the three-particle
-/// start of §5.7.2 for n = 3), `warm_up` untimed steps, then medians over `steps` steps;
-/// explicit coupling with the lagged Gⁿ, or with G as flow unknowns if `coupled_g`; with
-/// `follow = Some(r)` on a mesh that follows the particles along x (columns r times finer within
-/// 1.5a, count kept out to 12a, as `sweeps/three_particles_follow.toml`).
+/// The case of [`moving`]: `n` free particles in confined shear flow (thesis §5.7: H = 1, L = 4,
+/// a = 0.1, Giesekus Wi = 1, α = 0.01, β = 0.1, Δt = 0.01) on an `nx × ny` mesh, particles on
+/// the line through the origin of slope −0.2 spaced 0.5 apart (the three-particle start of
+/// §5.7.2 for n = 3); explicit coupling with the lagged Gⁿ, or with G as flow unknowns if
+/// `coupled_g`; with `follow = Some(r)` on a mesh that follows the particles along x (columns r
+/// times finer within 1.5a, count kept out to 12a, as `sweeps/three_particles_follow.toml`);
+/// `cut` = (quadtree level, interface rule) if not the case default. Everything else is the
+/// case default.
+pub fn moving_case(
+    nx: usize,
+    ny: usize,
+    n: usize,
+    coupled_g: bool,
+    follow: Option<f64>,
+    cut: Option<(u32, crate::config::InterfaceRule)>,
+) -> Result<crate::config::CaseSpec, crate::config::SpecError> {
+    let l = 4.0;
+    let spacing = if n <= 7 { 0.5 } else { l / n as f64 };
+    let x0: Vec<[f64; 2]> = (0..n)
+        .map(|i| {
+            let s = (i as f64 - 0.5 * (n as f64 - 1.0)) * spacing;
+            [s, -0.2 * s]
+        })
+        .collect();
+    let mut numerics = serde_json::json!({ "mesh": [nx, ny], "dt": 0.01, "t_end": 1.0 });
+    if coupled_g {
+        numerics["coupling"] = "explicit_coupled_g".into();
+    }
+    if let Some((level, interface)) = cut {
+        numerics["quadtree_level"] = level.into();
+        // (a unit variant always serializes)
+        numerics["interface"] = serde_json::to_value(interface).unwrap_or_default();
+    }
+    if let Some(ratio) = follow {
+        numerics["follow"] =
+            serde_json::json!({ "ratio": ratio, "ratio_y": 1.0, "core": 1.5, "reach": 12.0 });
+    }
+    crate::config::CaseSpec::from_value(serde_json::json!({
+        "geometry": { "confined_shear": { "h": 1.0, "l": l, "wall_speed": 1.0 } },
+        "fluid": { "model": "giesekus", "wi": 1.0, "alpha": 0.01, "beta": 0.1 },
+        "particles": { "radius": 0.1, "layout": { "explicit": { "positions": x0 } } },
+        "numerics": numerics,
+    }))
+}
+
+/// One viscoelastic time step of [`moving_case`], built by [`Simulation::new`] as every case
+/// is: `warm_up` untimed steps, then medians over `steps` steps.
 ///
 /// # Errors
-/// [`crate::solver::moving::MovingError`] if a step fails or particles touch.
+/// The case's validation error, a set-up or step failure, or particles touching.
+#[allow(clippy::too_many_arguments)]
 pub fn moving(
     nx: usize,
     ny: usize,
@@ -189,55 +230,20 @@ pub fn moving(
     steps: usize,
     coupled_g: bool,
     follow: Option<f64>,
-) -> Result<MovingBench, crate::solver::moving::MovingError> {
-    use crate::mesh::follow::{Follow, FollowingMesh};
-    use crate::solver::moving::{ComputationalMesh, MovingError, MovingParticles, ShearDomain};
-    use crate::solver::viscoelastic::ViscoelasticParams;
-    let (h, l, a) = (1.0, 4.0, 0.1);
-    let mesh = crate::mesh::Mesh::channel(h, l, [nx, ny], 1.0, 1.0);
-    let spacing = if n <= 7 { 0.5 } else { l / n as f64 };
-    let x0: Vec<[f64; 2]> = (0..n)
-        .map(|i| {
-            let s = (i as f64 - 0.5 * (n as f64 - 1.0)) * spacing;
-            [s, -0.2 * s]
-        })
-        .collect();
-    let domain = ShearDomain {
-        h,
-        l,
-        wall_speed: 1.0,
-        drift: 0.0,
-    };
-    let mut params = ViscoelasticParams::new(0.1, 0.9, 1.0, 0.01, 0.01, 1.0);
-    params.coupled_g = coupled_g;
-    let mesh: ComputationalMesh = match follow {
-        Some(ratio) => {
-            let spec = |ratio| Follow {
-                ratio,
-                core: 1.5 * a,
-                reach: 12.0 * a,
-            };
-            FollowingMesh {
-                base: mesh,
-                x: spec(ratio),
-                y: spec(1.0),
-            }
-            .into()
-        }
-        None => mesh.into(),
-    };
-    let cut = crate::xfem::CutOptions::default();
-    let mut sim = MovingParticles::free(mesh, params, domain, x0, a, cut)?;
-    // the history interpolation cases use by default
-    sim.set_remap(crate::sweep::solver_runner::ale_remap(
-        crate::config::HistoryRemap::default(),
-    ));
+    cut: Option<(u32, crate::config::InterfaceRule)>,
+) -> anyhow::Result<MovingBench> {
+    use crate::simulate::Simulation;
+    use crate::solver::moving::StepOutcome;
+    let case = moving_case(nx, ny, n, coupled_g, follow, cut)?;
+    let mut sim = Simulation::new(&case)?;
     let mut reports = Vec::new();
     for k in 0..warm_up + steps {
         match sim.step()? {
-            Ok(r) if k >= warm_up => reports.push(r),
-            Ok(_) => {}
-            Err(c) => return Err(MovingError::Setup(format!("bench: particles touched: {c}"))),
+            StepOutcome::Stepped(r) if k >= warm_up => reports.push(r),
+            StepOutcome::Stepped(_) => {}
+            StepOutcome::Contact(c) | StepOutcome::ContactAfter(_, c) => {
+                anyhow::bail!("bench: particles touched: {c}")
+            }
         }
     }
     let med = |f: &dyn Fn(&crate::solver::moving::MovingReport) -> f64| {
@@ -249,7 +255,7 @@ pub fn moving(
             None => format!("{nx}x{ny}"),
         },
         particles: n,
-        unknowns: sim.flow().sizes(),
+        unknowns: sim.stepper().flow().sizes(),
         steps,
         ale: med(&|r| r.timings.ale),
         classify: med(&|r| r.timings.classify),
@@ -263,8 +269,8 @@ pub fn moving(
         transport_solve: med(&|r| r.flow.timings.transport.solve),
         conformation_projection: med(&|r| r.flow.timings.conformation_projection),
         total: med(&|r| r.timings.total),
-        pattern_rebuilds: sim.flow().pattern_rebuilds(),
-        flow_factorizations: sim.flow().flow_refactorizations(),
+        pattern_rebuilds: sim.stepper().flow().pattern_rebuilds(),
+        flow_factorizations: sim.stepper().flow().flow_refactorizations(),
         run_steps: warm_up + steps,
         peak_rss_mb: peak_rss_mb(),
     })

@@ -15,6 +15,7 @@ pub mod mesh;
 pub mod observe;
 pub mod particles;
 pub mod rheology;
+pub mod simulate;
 pub mod solver;
 pub mod store;
 pub mod sweep;

@@ -9,11 +9,12 @@ use std::time::Instant;
 
 use xpflow::fem::element::q2_map;
 use xpflow::fem::quadrature::gauss_quad;
+use xpflow::geometry::CouetteGeometry;
 use xpflow::mesh::Mesh;
-use xpflow::solver::couette::{CouetteCase, CouetteGeometry};
 use xpflow::solver::cutcells::compute_cuts;
-use xpflow::solver::motion::MotionEnd;
+use xpflow::solver::moving::{apply_walls, MovingEnd, MovingParticles};
 use xpflow::solver::rigid::{ElementCut, Motion, Particle};
+use xpflow::solver::viscoelastic::{ViscoelasticFlow, ViscoelasticParams};
 use xpflow::xfem::CutOptions;
 
 /// R1 = 1, R2 = 4 (thesis ratio), ω̄ = 1: γ̇ = 1/3.
@@ -42,29 +43,30 @@ struct Sample {
 /// trajectory and the wall time per step.
 fn trajectory(mesh: [usize; 2], angle: f64) -> (Vec<Sample>, f64) {
     let g = geometry();
-    let case = CouetteCase {
-        geometry: g,
-        eta: 1.0,
-        radius: vec![g.particle_radius(CONFINEMENT)],
-        x0: vec![g.position(R0_STAR, angle)],
-        mesh,
-        dt: DT,
-        t_end: T_END,
-        cut: CutOptions::default(),
+    // quasi-static Stokes motion: the moving-particle stepper with a fluid without polymer
+    let mut sim = MovingParticles::free(
+        g.build_mesh(mesh[0], mesh[1]),
+        ViscoelasticParams::newtonian(1.0, DT, T_END),
+        g,
+        vec![g.position(R0_STAR, angle)],
+        g.particle_radius(CONFINEMENT),
+        CutOptions::default(),
+    )
+    .expect("the initial solve succeeds");
+    let sample = |sim: &MovingParticles<CouetteGeometry>| Sample {
+        t: sim.time(),
+        r_star: g.r_star(sim.state().x[0]),
+        omega: sim.state().omega[0],
     };
-    let mut out = Vec::new();
+    let mut out = vec![sample(&sim)];
     let start = Instant::now();
-    let end = case
-        .run(&mut |_, t, s, _, _| {
-            out.push(Sample {
-                t,
-                r_star: g.r_star(s.x[0]),
-                omega: s.omega[0],
-            });
+    let end = sim
+        .run(T_END, false, |sim, _| {
+            out.push(sample(sim));
             true
         })
         .expect("the quasi-static run succeeds");
-    assert_eq!(end, MotionEnd::EndTime);
+    assert_eq!(end, MovingEnd::EndTime);
     let per_step = start.elapsed().as_secs_f64() / out.len() as f64;
     (out, per_step)
 }
@@ -79,22 +81,16 @@ fn particle_free_flow_matches_the_analytic_profile() {
     let g = geometry();
     let mut errs = Vec::new();
     for mesh in [[32, 4], [64, 8]] {
-        let case = CouetteCase {
-            geometry: g,
-            eta: 1.0,
-            radius: vec![],
-            x0: vec![],
-            mesh,
-            dt: DT,
-            t_end: 0.0,
-            cut: CutOptions::default(),
-        };
-        let m = case.build_mesh();
-        let sol = case.rigid_velocities(&m, &[], 0).expect("solve");
+        let m = g.build_mesh(mesh[0], mesh[1]);
+        let mut flow =
+            ViscoelasticFlow::new(m.clone(), ViscoelasticParams::newtonian(1.0, DT, 0.0))
+                .expect("valid parameters");
+        apply_walls(&g, &mut flow);
+        flow.start(&|_| [0.0, 0.0]).expect("solve");
         let err = m
             .nodes
             .iter()
-            .zip(&sol.fields.u)
+            .zip(flow.velocity())
             .map(|(x, u)| {
                 let e = g.couette_velocity(*x);
                 (u[0] - e[0]).hypot(u[1] - e[1])

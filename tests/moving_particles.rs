@@ -1,9 +1,8 @@
 //! Moving particles in viscoelastic flow (issue 5), fast checks on coarse meshes; the full
 //! studies run with `make validate` (`xpflow validate translating-cylinder`, ...).
 
+use xpflow::geometry::CouetteGeometry;
 use xpflow::solver::constitutive_stress::Coupling;
-use xpflow::solver::couette::{CouetteCase, CouetteGeometry};
-use xpflow::solver::motion::MotionEnd;
 use xpflow::solver::moving::{MovingEnd, MovingParticles};
 use xpflow::solver::rigid::Motion;
 use xpflow::solver::viscoelastic::ViscoelasticParams;
@@ -32,24 +31,24 @@ fn couette_particle_at_vanishing_wi_follows_the_stokes_run() {
     let (dt, t_end, mesh) = (0.015, 0.75, [64, 12]);
     let a = g.particle_radius(4.0 / 15.0);
     let x0 = g.position(0.5, 0.3);
-    let stokes = CouetteCase {
-        geometry: g,
-        eta: 1.0,
-        radius: vec![a],
-        x0: vec![x0],
-        mesh,
-        dt,
-        t_end,
-        cut: CutOptions::default(),
-    };
-    let mut reference = Vec::new();
+    // the Stokes run: the same stepper with a fluid without polymer
+    let mut stokes = MovingParticles::free(
+        g.build_mesh(mesh[0], mesh[1]),
+        ViscoelasticParams::newtonian(1.0, dt, t_end),
+        g,
+        vec![x0],
+        a,
+        CutOptions::default(),
+    )
+    .unwrap();
+    let mut reference = vec![(0.0, g.r_star(x0), stokes.state().omega[0])];
     let end = stokes
-        .run(&mut |_, t, s, _, _| {
-            reference.push((t, g.r_star(s.x[0]), s.omega[0]));
+        .run(t_end, false, |s, _| {
+            reference.push((s.time(), g.r_star(s.state().x[0]), s.state().omega[0]));
             true
         })
         .unwrap();
-    assert_eq!(end, MotionEnd::EndTime);
+    assert_eq!(end, MovingEnd::EndTime);
 
     let lambda = WI / g.shear_rate();
     let mut params = ViscoelasticParams::new(0.5, 0.5, lambda, 0.01, dt, t_end);
@@ -103,14 +102,15 @@ fn couette_particle_at_vanishing_wi_follows_the_stokes_run() {
 /// unmapped sⁿ all in play.
 #[test]
 fn a_restored_run_continues_the_saved_one() {
+    use xpflow::geometry::ConfinedShear;
     use xpflow::mesh::follow::Follow;
     use xpflow::mesh::{Axis, Mesh};
-    use xpflow::solver::moving::{ComputationalMesh, FollowingMesh, MovingCheckpoint, ShearDomain};
+    use xpflow::solver::moving::{ComputationalMesh, FollowingMesh, MovingCheckpoint};
     // The restored flow pattern is built around the current positions rather than where the
     // saved run last rebuilt it, which may reorder the factorization: round-off only.
     const RESTORE_TOL: f64 = 1e-10;
     let (dt, steps) = (0.02, 8);
-    let domain = ShearDomain {
+    let domain = ConfinedShear {
         h: 1.0,
         l: 2.0,
         wall_speed: 1.0,
@@ -152,11 +152,11 @@ fn a_restored_run_continues_the_saved_one() {
         };
         let mut straight = setup();
         for _ in 0..steps {
-            straight.step().unwrap().unwrap();
+            straight.step().unwrap().into_report().unwrap();
         }
         let mut first = setup();
         for _ in 0..steps / 2 {
-            first.step().unwrap().unwrap();
+            first.step().unwrap().into_report().unwrap();
         }
         let json = serde_json::to_string(&first.checkpoint()).unwrap();
         drop(first);
@@ -165,7 +165,7 @@ fn a_restored_run_continues_the_saved_one() {
         resumed.restore(cp).unwrap();
         assert_eq!(resumed.time(), (steps / 2) as f64 * dt);
         for _ in 0..steps / 2 {
-            resumed.step().unwrap().unwrap();
+            resumed.step().unwrap().into_report().unwrap();
         }
         let (a, b) = (straight.state(), resumed.state());
         let mut diff: f64 = 0.0;
@@ -211,7 +211,7 @@ fn a_restored_run_continues_the_saved_one() {
         // and the restore really carried something: a fresh start differs at this time
         let mut fresh = setup();
         for _ in 0..steps / 2 {
-            fresh.step().unwrap().unwrap();
+            fresh.step().unwrap().into_report().unwrap();
         }
         assert!((fresh.state().omega[0] - a.omega[0]).abs() > 1e3 * RESTORE_TOL);
     }

@@ -12,7 +12,8 @@ use xpflow::cli::sweep_cmds::{
 use xpflow::config::{ConfigError, SweepSpec};
 use xpflow::observe::OutcomeKind;
 use xpflow::store::Format;
-use xpflow::sweep::{expand, FakeBehaviour, FakeRunner, UnbuiltSolver};
+use xpflow::sweep::solver_runner::SolverRunner;
+use xpflow::sweep::{expand, FakeBehaviour, FakeRunner};
 
 fn scratch(name: &str) -> Scratch {
     Scratch::new("cli", name)
@@ -24,6 +25,7 @@ fn args(file: &Path, db: &Path) -> SweepArgs {
         db: Some(db.into()),
         jobs: Some(2),
         dry_run: false,
+        resolved: false,
         quiet: true,
         retry_failed: false,
         state_every: 5.0,
@@ -51,7 +53,7 @@ fn example_sweeps_pass_dry_run() {
             let mut out = Vec::new();
             let mut a = args(&path, Path::new("/nonexistent/never.db"));
             a.dry_run = true;
-            let code = run_sweep_with(&a, &UnbuiltSolver, &mut out).unwrap();
+            let code = run_sweep_with(&a, &SolverRunner, &mut out).unwrap();
             assert_eq!(code, ExitCode::SUCCESS, "{}", path.display());
             let text = String::from_utf8(out).unwrap();
             assert!(text.contains(" cases in sweep "), "{text}");
@@ -176,7 +178,9 @@ fn unsupported_cases_exit_2_and_write_nothing() {
     let file = dir.join("s.toml");
     std::fs::write(&file, GOOD).unwrap();
     let db = dir.join("r.db");
-    let code = run_sweep_with(&args(&file, &db), &UnbuiltSolver, &mut Vec::new()).unwrap();
+    let mut refusing = FakeRunner::new(|_| FakeBehaviour::Produce(OutcomeKind::Timeout));
+    refusing.refuse = Box::new(|_| true);
+    let code = run_sweep_with(&args(&file, &db), &refusing, &mut Vec::new()).unwrap();
     assert_eq!(code, ExitCode::from(2));
     assert!(!db.exists());
 }

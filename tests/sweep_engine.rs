@@ -50,12 +50,13 @@ fn parse(text: &str, dir: &Path) -> SweepSpec {
     SweepSpec::from_file(&file).unwrap()
 }
 
-/// Behaviour by Wi: 1 repel, 2 string, 3 reported divergence, 4 panic, 5 NaN states, other timeout.
+/// Behaviour by Wi: 1 repel, 2 string, 3 reported divergence, 4 panic (a failure, not physics),
+/// 5 NaN states, other timeout.
 fn by_wi(spec: &CaseSpec) -> FakeBehaviour {
     match spec.fluid.wi as i64 {
         1 => FakeBehaviour::Produce(OutcomeKind::Repel),
         2 => FakeBehaviour::Produce(OutcomeKind::String),
-        3 => FakeBehaviour::Diverge("linear solve failed at step 5 (residual 1e3)".into()),
+        3 => FakeBehaviour::Diverge("step 5: log-conformation not finite at vertex 12".into()),
         4 => FakeBehaviour::Panic,
         5 => FakeBehaviour::Produce(OutcomeKind::Diverged),
         _ => FakeBehaviour::Produce(OutcomeKind::Timeout),
@@ -83,7 +84,7 @@ fn outcomes_divergence_and_rerun() {
     let cases = expand(&sweep).unwrap();
     let db = dir.join("r.db");
     let s = run_sweep(&sweep, &cases, &FakeRunner::new(by_wi), &opts(&db, 2)).unwrap();
-    assert_eq!((s.total, s.ran, s.failed), (10, 10, 0));
+    assert_eq!((s.total, s.ran, s.failed), (10, 10, 2));
     let store = Store::open(&db).unwrap();
     let kind_of = |wi: f64, n: i64| -> (String, Option<String>) {
         store
@@ -100,10 +101,18 @@ fn outcomes_divergence_and_rerun() {
         assert_eq!(kind_of(2.0, n).0, "string");
         let (k, e) = kind_of(3.0, n);
         assert_eq!(k, "diverged");
-        assert!(e.unwrap().contains("linear solve failed"));
-        let (k, e) = kind_of(4.0, n);
-        assert_eq!(k, "diverged");
-        assert!(e.unwrap().contains("panicked"));
+        assert!(e.unwrap().contains("log-conformation not finite"));
+        // a panic is a failure of the code: status failed, no outcome, the message kept
+        let (status, e): (String, String) = store
+            .connection()
+            .query_row(
+                "SELECT status, error FROM cases WHERE wi = 4.0 AND n_particles = ?1",
+                [n],
+                |r| Ok((r.get(0)?, r.get(1)?)),
+            )
+            .unwrap();
+        assert_eq!(status, "failed");
+        assert!(e.contains("panicked at step"), "{e}");
         let (k, e) = kind_of(5.0, n);
         assert_eq!(k, "diverged");
         assert!(e.unwrap().contains("non-finite"));
@@ -135,8 +144,9 @@ fn outcomes_divergence_and_rerun() {
     // Rerun: nothing to do.
     let again = run_sweep(&sweep, &cases, &FakeRunner::new(by_wi), &opts(&db, 2)).unwrap();
     assert_eq!((again.ran, again.skipped), (0, 10));
+    // the two failed (panicked) cases have no outcome
     let n: i64 = scalar(&store, "SELECT COUNT(*) FROM outcomes");
-    assert_eq!(n, 10);
+    assert_eq!(n, 8);
     assert_eq!(store.integrity_check().unwrap(), "ok");
 }
 

@@ -33,6 +33,9 @@ pub struct SweepArgs {
     /// List the expanded cases with their ids and exit.
     #[arg(long)]
     pub dry_run: bool,
+    /// With --dry-run: print every case's resolved numerical settings (all defaults filled in).
+    #[arg(long, requires = "dry_run")]
+    pub resolved: bool,
     /// No progress output.
     #[arg(long)]
     pub quiet: bool,
@@ -131,6 +134,16 @@ pub fn run_sweep_with(
         }
         write!(out, "{}", t.render(Format::Table))?;
         writeln!(out, "{} cases in sweep {}", cases.len(), spec.name)?;
+        if args.resolved {
+            for c in &cases {
+                let settings = crate::simulate::Settings::of(&c.spec).to_toml();
+                writeln!(
+                    out,
+                    "\n# case {} {} ({})\n{settings}",
+                    c.index, c.id, c.label
+                )?;
+            }
+        }
         return Ok(ExitCode::SUCCESS);
     }
     let db = args

@@ -180,9 +180,15 @@ pub struct Numerics {
     pub dt: f64,
     /// End time; the case is undecided (`timeout`) if no outcome is reached by then.
     pub t_end: f64,
-    /// Quadtree refinement level of cut-cell integration (thesis Table 2.2); default 3.
+    /// Quadtree refinement level of cut-cell integration (thesis Table 2.2); default
+    /// [`DEFAULT_QUADTREE_LEVEL`] (docs/validation.md, "The cut rule").
     #[serde(default = "default_quadtree_level")]
     pub quadtree_level: u32,
+    /// How the interface is drawn in the finest cut sub-squares: `parabolic` (default) or the
+    /// thesis' straight chords, `linear`. Always in the case id (cases run before this field
+    /// existed used `linear`).
+    #[serde(default)]
+    pub interface: InterfaceRule,
     /// Interpolation of the history fields onto the moving mesh (temporary ALE); default
     /// bicubic (earlier defaults: biquadratic, and before that the thesis' bilinear map).
     /// Always written into the canonical case of a viscoelastic case: cases that named their
@@ -308,6 +314,21 @@ impl StressCoupling {
     }
 }
 
+/// Quadtree levels of the cut-cell quadrature when a case names none: the validated default
+/// (docs/validation.md, "The cut rule": drag K and the §2.4 rates per cost).
+pub const DEFAULT_QUADTREE_LEVEL: u32 = 3;
+
+/// How the interface is represented inside the finest cut sub-squares of the cut-cell quadrature.
+#[derive(Debug, Clone, Copy, Default, PartialEq, Eq, Serialize, Deserialize)]
+#[serde(rename_all = "snake_case")]
+pub enum InterfaceRule {
+    /// Parabolic chords through the interface point at the chord midpoint (area error O(h_L³)).
+    #[default]
+    Parabolic,
+    /// Straight chords (the thesis' rule; area error O(h_L²)).
+    Linear,
+}
+
 /// How the temporary ALE interpolates sⁿ, s^{n−1} (and G) at the pre-images. Every step
 /// interpolates the history of the vertices near a moving particle at generic points, so the
 /// interpolation error accumulates like that of a semi-Lagrangian scheme (∝ h^{p+1}/Δt).
@@ -374,7 +395,7 @@ fn yes() -> bool {
     true
 }
 fn default_quadtree_level() -> u32 {
-    3
+    DEFAULT_QUADTREE_LEVEL
 }
 fn default_sample_every() -> u64 {
     10

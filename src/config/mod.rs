@@ -16,8 +16,8 @@ mod sweep_file;
 mod validate;
 
 pub use case::{
-    CaseSpec, Fluid, FrameChoice, Geometry, HistoryRemap, Layout, Model, Numerics, Output,
-    Particles, Stop, StressCoupling,
+    CaseSpec, Fluid, FollowMesh, FrameChoice, Geometry, HistoryRemap, InterfaceRule, Layout, Model,
+    Numerics, Output, Particles, Stop, StressCoupling, DEFAULT_QUADTREE_LEVEL,
 };
 pub use error::{ConfigError, SpecError};
 pub use sweep_file::{Axis, SweepSpec};

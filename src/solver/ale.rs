@@ -1260,7 +1260,7 @@ mod tests {
 #[cfg(test)]
 mod annulus_tests {
     use super::*;
-    use crate::solver::couette::CouetteGeometry;
+    use crate::geometry::CouetteGeometry;
 
     #[test]
     fn extension_into_a_disc_is_exact_for_linear_fields() {

@@ -7,145 +7,36 @@
 //! Eq. 5.48) → solve_stress (SUPG/BDF2 with u − u_m, Eq. 5.52) → correct (trapezoidal rule,
 //! Eqs. 5.54–5.56) → observe (contact, divergence, steady rotation of §5.7.2).
 //!
-//! Two confinements: [`ShearDomain`] (walls at y = ±H/2 sliding at ±U_w/2, periodic in x) and
-//! the circular Couette flow of [`crate::solver::couette`].
+//! The confinement (walls, period, contact) is a [`Confinement`] of `crate::geometry`. A fluid
+//! without polymer (η_p = 0) runs the same pipeline without the ALE map and the stress solve:
+//! quasi-static Stokes motion, the flow pattern and its symbolic factorization kept across steps.
 
 use std::time::Instant;
 
+pub use crate::geometry::Confinement;
 pub use crate::mesh::follow::FollowingMesh;
 use crate::mesh::{Axis, Mesh, Side};
-use crate::particles::{
-    correct, find_annulus_contact, find_contact, predict, Contact, RigidState, CONTACT_OVERLAP,
-};
-use crate::solver::ale::{AleError, Remap, RigidMove, TemporaryAle};
-use crate::solver::couette::CouetteGeometry;
+use crate::particles::{correct, predict, Contact, RigidState, CONTACT_OVERLAP};
+use crate::solver::ale::{AleError, AleMap, Remap, RigidMove, TemporaryAle};
 use crate::solver::cutcells::{compute_cuts, CutError};
-use crate::solver::rigid::{Motion, Particle};
+use crate::solver::rigid::{ElementCut, Motion, Particle};
 use crate::solver::viscoelastic::{
-    FlowState, HistoryMap, StepReport, ViscoelasticError, ViscoelasticFlow, ViscoelasticParams,
+    FlowSolution, FlowState, HistoryMap, StepReport, ViscoelasticError, ViscoelasticFlow,
+    ViscoelasticParams,
 };
 use crate::xfem::CutOptions;
 
 /// Steady rotation of §5.7.2: |ω*(tⁿ⁺¹) − ω*(tⁿ)| below this for every particle.
 pub const STEADY_ROTATION_TOL: f64 = 1e-6;
 
-/// Where the particles move: walls, periodicity, contact and the characteristic shear rate.
-pub trait Domain: Send + Sync {
-    /// Period in x of a periodic rectangle (`None` otherwise; the annulus needs none).
-    fn period(&self) -> Option<f64>;
-    /// Sets the wall velocities (and pins the pressure where the flow is enclosed).
-    fn apply_walls(&self, flow: &mut ViscoelasticFlow);
-    /// A particle–particle or particle–wall gap below `min_gap`.
-    fn contact(&self, x: &[[f64; 2]], radius: &[f64], min_gap: f64) -> Option<Contact>;
-    /// Characteristic shear rate γ̇ (t* = tγ̇, ω* = ω/γ̇).
-    fn shear_rate(&self) -> f64;
-    /// The point moved into the period (identity without one).
-    fn wrap(&self, x: [f64; 2]) -> [f64; 2] {
-        match self.period() {
-            Some(l) => [x[0] - l * (x[0] / l).round(), x[1]],
-            None => x,
-        }
+/// Prescribes the confinement's wall velocities on the flow's bottom and top sides and pins the
+/// pressure (every confinement encloses its flow).
+pub fn apply_walls<D: Confinement + Clone + 'static>(domain: &D, flow: &mut ViscoelasticFlow) {
+    for side in [Side::Bottom, Side::Top] {
+        let d = domain.clone();
+        flow.set_velocity(side, move |x| d.wall_velocity(side, x));
     }
-}
-
-/// Confined shear flow (thesis §5.6.1): walls at y = ±H/2 moving at drift ± U_w/2, periodic in
-/// x with period L centred on x = 0.
-#[derive(Debug, Clone, Copy)]
-pub struct ShearDomain {
-    /// Channel height H.
-    pub h: f64,
-    /// Period L.
-    pub l: f64,
-    /// Relative wall speed U_w (γ̇ = U_w/H).
-    pub wall_speed: f64,
-    /// Velocity in x common to both walls (0 for the thesis' set-ups; −U puts a body moving at U
-    /// through fluid at rest into its own frame).
-    pub drift: f64,
-}
-
-impl Domain for ShearDomain {
-    fn period(&self) -> Option<f64> {
-        Some(self.l)
-    }
-
-    fn apply_walls(&self, flow: &mut ViscoelasticFlow) {
-        let (uw, d) = (0.5 * self.wall_speed, self.drift);
-        flow.set_velocity(Side::Bottom, move |_| [d - uw, 0.0]);
-        flow.set_velocity(Side::Top, move |_| [d + uw, 0.0]);
-        flow.pin_pressure();
-    }
-
-    fn contact(&self, x: &[[f64; 2]], radius: &[f64], min_gap: f64) -> Option<Contact> {
-        let walls = Some((-0.5 * self.h, 0.5 * self.h));
-        find_contact(x, radius, walls, Some(self.l), min_gap)
-    }
-
-    fn shear_rate(&self) -> f64 {
-        self.wall_speed / self.h
-    }
-}
-
-/// Circular Couette flow (thesis §3.5): inner cylinder rotating at ω̄, outer at rest, no period.
-impl Domain for CouetteGeometry {
-    fn period(&self) -> Option<f64> {
-        None
-    }
-
-    fn apply_walls(&self, flow: &mut ViscoelasticFlow) {
-        // the lab frame is the rotating one at Ω = 0
-        RotatingCouette {
-            geometry: *self,
-            frame: 0.0,
-        }
-        .apply_walls(flow);
-    }
-
-    fn contact(&self, x: &[[f64; 2]], radius: &[f64], min_gap: f64) -> Option<Contact> {
-        find_annulus_contact(x, radius, (self.r1(), self.r2()), min_gap)
-    }
-
-    fn shear_rate(&self) -> f64 {
-        CouetteGeometry::shear_rate(self)
-    }
-}
-
-/// The Couette cell seen from a frame rotating counter-clockwise at Ω about the axis: inner wall
-/// at ω̄ − Ω, outer wall at −Ω. Inertialless flow with an objective constitutive model is the
-/// same in a rigidly rotating frame, so a frame turning with a particle's orbit keeps the particle
-/// nearly at rest on the (rotationally symmetric) mesh; velocities are relative to the frame
-/// (ω_lab = ω + Ω).
-#[derive(Debug, Clone, Copy)]
-pub struct RotatingCouette {
-    /// The cell.
-    pub geometry: CouetteGeometry,
-    /// Frame angular velocity Ω (counter-clockwise positive).
-    pub frame: f64,
-}
-
-impl Domain for RotatingCouette {
-    fn period(&self) -> Option<f64> {
-        None
-    }
-
-    fn apply_walls(&self, flow: &mut ViscoelasticFlow) {
-        let (g, frame) = (self.geometry, self.frame);
-        // the lab wall velocity minus the frame's rigid rotation Ω × x
-        let relative = move |side: Side, x: [f64; 2]| {
-            let w = g.wall_velocity(side, x);
-            [w[0] + frame * x[1], w[1] - frame * x[0]]
-        };
-        flow.set_velocity(Side::Bottom, move |x| relative(Side::Bottom, x));
-        flow.set_velocity(Side::Top, move |x| relative(Side::Top, x));
-        flow.pin_pressure();
-    }
-
-    fn contact(&self, x: &[[f64; 2]], radius: &[f64], min_gap: f64) -> Option<Contact> {
-        self.geometry.contact(x, radius, min_gap)
-    }
-
-    fn shear_rate(&self) -> f64 {
-        CouetteGeometry::shear_rate(&self.geometry)
-    }
+    flow.pin_pressure();
 }
 
 /// Why a run stopped.
@@ -202,6 +93,21 @@ pub enum MovingError {
     Setup(String),
 }
 
+impl MovingError {
+    /// The phase of the time step that failed: `set-up`, `ale_map`, `classify`, `solve_flow`,
+    /// `solve_stress` or `correct`.
+    pub fn phase(&self) -> &'static str {
+        match self {
+            MovingError::Cut { .. } => "classify",
+            MovingError::Ale { .. } | MovingError::Follow { .. } => "ale_map",
+            MovingError::Flow(ViscoelasticError::Flow { .. }) => "solve_flow",
+            MovingError::Flow(ViscoelasticError::Stress(_)) => "solve_stress",
+            MovingError::NonFinite { .. } => "correct",
+            MovingError::Flow(_) | MovingError::Setup(_) => "set-up",
+        }
+    }
+}
+
 /// The computational mesh of a moving-particle run.
 #[derive(Debug, Clone)]
 pub enum ComputationalMesh {
@@ -248,6 +154,30 @@ pub struct MovingReport {
     pub timings: MovingTimings,
 }
 
+/// How a step ended: contact is an outcome of the physics, not an error.
+#[derive(Debug, Clone)]
+pub enum StepOutcome {
+    /// The step was taken.
+    Stepped(MovingReport),
+    /// The predicted particles would touch: the step was not taken.
+    Contact(Contact),
+    /// The step was taken and the corrected particles touch.
+    ContactAfter(MovingReport, Contact),
+}
+
+impl StepOutcome {
+    /// The report of a step that ended without contact, or the contact.
+    ///
+    /// # Errors
+    /// The contact, predicted or after the step.
+    pub fn into_report(self) -> Result<MovingReport, Contact> {
+        match self {
+            StepOutcome::Stepped(r) => Ok(r),
+            StepOutcome::Contact(c) | StepOutcome::ContactAfter(_, c) => Err(c),
+        }
+    }
+}
+
 /// Everything a moving-particle run needs to continue from the end of a step in another process
 /// (see [`MovingParticles::checkpoint`]).
 #[derive(Debug, Clone, PartialEq, serde::Serialize, serde::Deserialize)]
@@ -269,7 +199,7 @@ pub struct MovingCheckpoint {
 }
 
 /// A viscoelastic flow with moving rigid particles.
-pub struct MovingParticles<D: Domain> {
+pub struct MovingParticles<D: Confinement> {
     domain: D,
     flow: ViscoelasticFlow,
     ale: TemporaryAle,
@@ -287,7 +217,7 @@ pub struct MovingParticles<D: Domain> {
     follow: Option<FollowingMesh>,
 }
 
-impl<D: Domain> MovingParticles<D> {
+impl<D: Confinement + Clone + 'static> MovingParticles<D> {
     /// Places the particles at `x0` in the fluid at rest and solves the initial flow (τ = 0),
     /// which gives the initial particle velocities; `mesh` is a fixed [`Mesh`] or a
     /// [`FollowingMesh`] (then the run starts on its mesh at `x0`).
@@ -327,7 +257,7 @@ impl<D: Domain> MovingParticles<D> {
             .map_err(|source| MovingError::Cut { step: 0, source })?;
         let ale = TemporaryAle::new(&mesh);
         let mut flow = ViscoelasticFlow::with_particles(mesh, params, particles, cuts)?;
-        domain.apply_walls(&mut flow);
+        apply_walls(&domain, &mut flow);
         flow.start(&|_| [0.0, 0.0])?;
         let mut cur = RigidState::at_rest(x0.clone());
         set_velocities(&mut cur, flow.rigid_velocities());
@@ -373,26 +303,80 @@ impl<D: Domain> MovingParticles<D> {
         )
     }
 
-    /// One time step; `Ok(Err(contact))` when the predicted particles would touch (the step is
-    /// not taken).
+    /// One time step, the pipeline of thesis §5.3.4: [`predict`](Self::predict) →
+    /// [`ale_map`](Self::ale_map) → [`classify`](Self::classify) →
+    /// [`solve_flow`](Self::solve_flow) → [`solve_stress`](Self::solve_stress) →
+    /// [`correct`](Self::correct) → [`observe`](Self::observe). [`StepOutcome::Contact`] when the
+    /// predicted or the corrected particles touch (the former: the step is not taken).
     ///
     /// # Errors
     /// [`MovingError`] when the geometry, the ALE map or a solve fails, or velocities blow up.
-    pub fn step(&mut self) -> Result<Result<MovingReport, Contact>, MovingError> {
+    pub fn step(&mut self) -> Result<StepOutcome, MovingError> {
         let t_step = Instant::now();
         let step = self.flow.history().steps() + 1;
-        let min_gap = -CONTACT_OVERLAP * self.radius.iter().copied().fold(f64::INFINITY, f64::min);
-        // 1. predict
-        let x_pred = predict(self.prev.as_ref(), &self.cur);
-        if let Some(c) = self.domain.contact(&x_pred, &self.radius, min_gap) {
-            return Ok(Err(c));
+        let x_pred = self.predict();
+        if let Some(c) = self.domain.contact(&x_pred, &self.radius, self.min_gap()) {
+            return Ok(StepOutcome::Contact(c));
         }
-        // 2. ale_map: the mesh follows the particles from X̂ⁿ to X̂ⁿ⁺¹
+        let mut timings = MovingTimings::default();
+        let (onto, map) = self.ale_map(&x_pred, step, &mut timings)?;
+        let target = onto.as_ref().unwrap_or(self.flow.mesh());
+        let (particles, cuts) = self.classify(target, &x_pred, step, &mut timings)?;
         let t0 = Instant::now();
+        let history = map.as_ref().map(|m| HistoryMap {
+            at_n: &m.at_n,
+            at_n_minus_1: m.at_n_minus_1.as_deref(),
+            mesh_velocity: &m.mesh_velocity,
+        });
+        self.flow
+            .move_particles_onto(onto, particles, cuts, history)?;
+        timings.ale += t0.elapsed().as_secs_f64();
+        let solution = self.solve_flow()?;
+        let flow = self.solve_stress(solution)?;
+        let d_omega_star = self.correct(x_pred, step)?;
+        timings.total = t_step.elapsed().as_secs_f64();
+        let report = MovingReport {
+            flow,
+            d_omega_star,
+            steady: d_omega_star < STEADY_ROTATION_TOL,
+            timings,
+        };
+        Ok(match self.observe() {
+            Some(c) => StepOutcome::ContactAfter(report, c),
+            None => StepOutcome::Stepped(report),
+        })
+    }
+
+    /// 1. predict: X̂ⁿ⁺¹ = 2Xⁿ − Xⁿ⁻¹ (Eqs. 5.45–5.47; Xⁿ before the first step).
+    fn predict(&self) -> Vec<[f64; 2]> {
+        predict(self.prev.as_ref(), &self.cur)
+    }
+
+    /// 2. ale_map: the computational mesh of the coming step (refined around X̂ⁿ⁺¹ if it
+    /// follows the particles; `None`: the mesh stays) and the temporary ALE map that carries the
+    /// history from X̂ⁿ onto it (thesis §5.3.3; `None` for a fluid without polymer, which has
+    /// no history).
+    fn ale_map(
+        &mut self,
+        x_pred: &[[f64; 2]],
+        step: usize,
+        timings: &mut MovingTimings,
+    ) -> Result<(Option<Mesh>, Option<AleMap>), MovingError> {
+        let t0 = Instant::now();
+        let onto = match &self.follow {
+            Some(f) => Some(
+                f.mesh_at(x_pred)
+                    .map_err(|reason| MovingError::Follow { step, reason })?,
+            ),
+            None => None,
+        };
+        if !self.flow.params().has_polymer() {
+            return Ok((onto, None));
+        }
         let moves: Vec<RigidMove> = self
             .fields_at
             .iter()
-            .zip(&x_pred)
+            .zip(x_pred)
             .zip(&self.radius)
             .map(|((from, to), &radius)| RigidMove {
                 center: self.domain.wrap(*from),
@@ -401,14 +385,6 @@ impl<D: Domain> MovingParticles<D> {
             })
             .collect();
         let first_order = self.flow.history().previous.is_none();
-        // the computational mesh of the coming step: refined around X̂ⁿ⁺¹ if it follows them
-        let onto = match &self.follow {
-            Some(f) => Some(
-                f.mesh_at(&x_pred)
-                    .map_err(|reason| MovingError::Follow { step, reason })?,
-            ),
-            None => None,
-        };
         let target = onto.as_ref().unwrap_or(self.flow.mesh());
         let map = self
             .ale
@@ -421,28 +397,39 @@ impl<D: Domain> MovingParticles<D> {
                 first_order,
             )
             .map_err(|source| MovingError::Ale { step, source })?;
-        let ale = t0.elapsed().as_secs_f64();
-        // 3. classify at the predicted configuration
-        let t1 = Instant::now();
-        let particles = make_particles(&self.domain, &x_pred, &self.radius, &self.motion);
-        let cuts = compute_cuts(target, &particles, self.domain.period(), self.cut)
+        timings.ale = t0.elapsed().as_secs_f64();
+        Ok((onto, Some(map)))
+    }
+
+    /// 3. classify: the particles at X̂ⁿ⁺¹ and their cut cells on `mesh`.
+    fn classify(
+        &self,
+        mesh: &Mesh,
+        x_pred: &[[f64; 2]],
+        step: usize,
+        timings: &mut MovingTimings,
+    ) -> Result<(Vec<Particle>, Vec<ElementCut>), MovingError> {
+        let t0 = Instant::now();
+        let particles = make_particles(&self.domain, x_pred, &self.radius, &self.motion);
+        let cuts = compute_cuts(mesh, &particles, self.domain.period(), self.cut)
             .map_err(|source| MovingError::Cut { step, source })?;
-        let classify = t1.elapsed().as_secs_f64();
-        let t2 = Instant::now();
-        self.flow.move_particles_onto(
-            onto,
-            particles,
-            cuts,
-            HistoryMap {
-                at_n: &map.at_n,
-                at_n_minus_1: map.at_n_minus_1.as_deref(),
-                mesh_velocity: &map.mesh_velocity,
-            },
-        )?;
-        let ale = ale + t2.elapsed().as_secs_f64();
-        // 4.–5. solve_flow, solve_stress
-        let flow = self.flow.step(&|_| [0.0, 0.0])?;
-        // 6. correct
+        timings.classify = t0.elapsed().as_secs_f64();
+        Ok((particles, cuts))
+    }
+
+    /// 4. solve_flow: u, p, Uᵢ, ωᵢ at X̂ⁿ⁺¹ (Eq. 5.48).
+    fn solve_flow(&mut self) -> Result<FlowSolution, MovingError> {
+        Ok(self.flow.solve_flow(&|_| [0.0, 0.0])?)
+    }
+
+    /// 5. solve_stress: s^{n+1} with u − u_m (Eq. 5.52; nothing without polymer).
+    fn solve_stress(&mut self, solution: FlowSolution) -> Result<StepReport, MovingError> {
+        Ok(self.flow.solve_stress(solution)?)
+    }
+
+    /// 6. correct: Xⁿ⁺¹ by the trapezoidal rule (Eqs. 5.54–5.56); returns
+    /// max |ω*(tⁿ⁺¹) − ω*(tⁿ)| over the particles.
+    fn correct(&mut self, x_pred: Vec<[f64; 2]>, step: usize) -> Result<f64, MovingError> {
         let rigid = self.flow.rigid_velocities();
         let u: Vec<[f64; 2]> = rigid.iter().map(|r| [r[0], r[1]]).collect();
         let omega: Vec<f64> = rigid.iter().map(|r| r[2]).collect();
@@ -462,20 +449,22 @@ impl<D: Domain> MovingParticles<D> {
             .fold(0.0, f64::max);
         self.prev = Some(std::mem::replace(&mut self.cur, next));
         self.fields_at = x_pred;
-        Ok(Ok(MovingReport {
-            flow,
-            d_omega_star,
-            steady: d_omega_star < STEADY_ROTATION_TOL,
-            timings: MovingTimings {
-                ale,
-                classify,
-                total: t_step.elapsed().as_secs_f64(),
-            },
-        }))
+        Ok(d_omega_star)
+    }
+
+    /// 7. observe: contact of the corrected particles with each other or a wall.
+    fn observe(&self) -> Option<Contact> {
+        self.domain
+            .contact(&self.cur.x, &self.radius, self.min_gap())
+    }
+
+    /// The gap below which particles are in contact: a small overlap of the smallest radius.
+    fn min_gap(&self) -> f64 {
+        -CONTACT_OVERLAP * self.radius.iter().copied().fold(f64::INFINITY, f64::min)
     }
 
     /// Steps until `t_end`, a contact, the steady rotation (if `stop_when_steady`) or until
-    /// `observe` returns false; `observe` sees every step.
+    /// `observe` returns false; `observe` sees every step taken.
     ///
     /// # Errors
     /// As [`step`](Self::step).
@@ -486,17 +475,19 @@ impl<D: Domain> MovingParticles<D> {
         mut observe: impl FnMut(&Self, &MovingReport) -> bool,
     ) -> Result<MovingEnd, MovingError> {
         let n_steps = (t_end / self.dt - 1e-9).ceil() as usize;
-        let min_gap = -CONTACT_OVERLAP * self.radius.iter().copied().fold(f64::INFINITY, f64::min);
         while self.flow.history().steps() < n_steps {
             let rep = match self.step()? {
-                Ok(rep) => rep,
-                Err(c) => return Ok(MovingEnd::Contact(c)),
+                StepOutcome::Stepped(rep) => rep,
+                StepOutcome::Contact(c) => return Ok(MovingEnd::Contact(c)),
+                StepOutcome::ContactAfter(rep, c) => {
+                    if !observe(self, &rep) {
+                        return Ok(MovingEnd::Stopped);
+                    }
+                    return Ok(MovingEnd::Contact(c));
+                }
             };
             if !observe(self, &rep) {
                 return Ok(MovingEnd::Stopped);
-            }
-            if let Some(c) = self.domain.contact(&self.cur.x, &self.radius, min_gap) {
-                return Ok(MovingEnd::Contact(c));
             }
             if stop_when_steady && rep.steady {
                 return Ok(MovingEnd::Steady);
@@ -602,7 +593,7 @@ impl<D: Domain> MovingParticles<D> {
     }
 }
 
-fn make_particles<D: Domain>(
+fn make_particles<D: Confinement>(
     domain: &D,
     x: &[[f64; 2]],
     radius: &[f64],

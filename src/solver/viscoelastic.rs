@@ -27,6 +27,7 @@ use crate::solver::constitutive_projection::{
     fluid_mean, sym_at, velocity_gradient_at, Q1Projection,
 };
 use crate::solver::constitutive_stress::{Coupling, CouplingStress};
+use crate::solver::polymer_terms::PolymerStress;
 use crate::solver::rigid::{ElementCut, Particle, WeakForm};
 use crate::solver::stokes::{Stokes, StokesParams};
 
@@ -63,6 +64,18 @@ pub struct ViscoelasticParams {
 }
 
 impl ViscoelasticParams {
+    /// A Newtonian fluid of viscosity η (no polymer: the stress transport, its projections and
+    /// the history map are skipped, and the flow solve is plain Stokes with the LBLᵀ solver;
+    /// λ is a placeholder that nothing uses).
+    pub fn newtonian(eta: f64, dt: f64, t_end: f64) -> Self {
+        Self::new(eta, 0.0, 1.0, 0.0, dt, t_end)
+    }
+
+    /// Whether the fluid has a polymer (η_p > 0); without one the stepper solves Stokes flow.
+    pub fn has_polymer(&self) -> bool {
+        self.eta_p > 0.0
+    }
+
     /// Explicit coupling, decoupled DEVSS-G with θ = η_p, steady tolerance [`STEADY_TOL`].
     pub fn new(eta_s: f64, eta_p: f64, lambda: f64, alpha: f64, dt: f64, t_end: f64) -> Self {
         Self {
@@ -270,6 +283,17 @@ pub struct FlowState {
     pub reaction: Vec<[f64; 3]>,
     /// Body force of the last flow solve.
     pub body_force: f64,
+}
+
+/// The flow of a step in progress ([`ViscoelasticFlow::solve_flow`]), to be finished by
+/// [`ViscoelasticFlow::solve_stress`].
+#[derive(Debug)]
+pub struct FlowSolution {
+    step: usize,
+    u: Vec<[f64; 2]>,
+    p: Vec<f64>,
+    g: Option<Vec<[f64; 4]>>,
+    started: Instant,
 }
 
 /// How the history moves onto the current configuration (temporary ALE map, thesis §5.3.3):
@@ -531,30 +555,43 @@ impl ViscoelasticFlow {
         cuts: Vec<ElementCut>,
         map: HistoryMap<'_>,
     ) -> Result<(), ViscoelasticError> {
-        self.move_particles_onto(None, particles, cuts, map)
+        self.move_particles_onto(None, particles, cuts, Some(map))
     }
 
     /// [`move_particles`](Self::move_particles) onto a computational mesh `onto` whose vertex
     /// columns and rows have moved (same topology; `None`: the mesh stays): the `map` gives the
     /// pre-images of `onto`'s vertices in the current mesh (see
     /// [`TemporaryAle::advance_onto`](crate::solver::ale::TemporaryAle::advance_onto)) and
-    /// `cuts` are the particles cut into `onto`.
+    /// `cuts` are the particles cut into `onto`. A fluid without polymer has no history: its
+    /// `map` may be `None`.
     ///
     /// # Errors
     /// As [`move_particles`](Self::move_particles).
     ///
     /// # Panics
-    /// As [`move_particles`](Self::move_particles), and if `onto` has another topology.
+    /// As [`move_particles`](Self::move_particles), if `onto` has another topology, and if a
+    /// fluid with polymer is given no map.
     pub fn move_particles_onto(
         &mut self,
         onto: Option<Mesh>,
         particles: Vec<Particle>,
         cuts: Vec<ElementCut>,
-        map: HistoryMap<'_>,
+        map: Option<HistoryMap<'_>>,
     ) -> Result<(), ViscoelasticError> {
         if self.flow_rate.is_some() {
             return Err(ViscoelasticError::FlowRateNeedsFixedBodies);
         }
+        if !self.params.has_polymer() {
+            // Stokes flow has no history to carry: the new geometry is all that changes
+            if let Some(mesh) = onto {
+                self.set_mesh(mesh);
+            }
+            self.fluid_node = fluid_nodes(&self.mesh, &particles, &cuts);
+            self.stokes.set_particles(particles, cuts.clone());
+            self.cuts = cuts;
+            return Ok(());
+        }
+        let map = map.expect("a fluid with polymer has a history to map");
         let nv = self.mesh.n_vertices();
         assert_eq!(map.at_n.len(), nv, "one pre-image per vertex");
         // sⁿ and Gⁿ as solved on the old configuration, extended into the old particles
@@ -830,7 +867,8 @@ impl ViscoelasticFlow {
         Ok(())
     }
 
-    /// One time step (calls [`start`](Self::start) first if needed).
+    /// One time step (calls [`start`](Self::start) first if needed):
+    /// [`solve_flow`](Self::solve_flow), then [`solve_stress`](Self::solve_stress).
     ///
     /// # Errors
     /// [`ViscoelasticError::Flow`] or [`ViscoelasticError::Stress`] if a solve fails or the
@@ -839,45 +877,93 @@ impl ViscoelasticFlow {
         &mut self,
         force: &dyn Fn([f64; 2]) -> [f64; 2],
     ) -> Result<StepReport, ViscoelasticError> {
+        let solution = self.solve_flow(force)?;
+        self.solve_stress(solution)
+    }
+
+    /// 1. solve_flow: u^{n+1}, p^{n+1} (and the rigid velocities, G^{n+1} when coupled) with
+    /// the polymer stress of cⁿ (none without polymer); calls [`start`](Self::start) first if
+    /// needed. The step ends with [`solve_stress`](Self::solve_stress).
+    ///
+    /// # Errors
+    /// [`ViscoelasticError::Flow`] if the solve fails.
+    pub fn solve_flow(
+        &mut self,
+        force: &dyn Fn([f64; 2]) -> [f64; 2],
+    ) -> Result<FlowSolution, ViscoelasticError> {
         if !self.started {
             self.start(force)?;
         }
-        let t_step = Instant::now();
+        let started = Instant::now();
         let step = self.history.steps() + 1;
-        let dt = self.params.dt;
-        // 1. solve_flow with the stress of cⁿ
         let stress = CouplingStress {
             mesh: &self.mesh,
             model: self.fluid.polymer(),
             conformation: &self.conformation,
             coupling: self.params.coupling,
-            dt,
+            dt: self.params.dt,
             mesh_velocity: self.mesh_velocity.as_deref(),
             devss: (!self.params.coupled_g && self.params.theta > 0.0)
                 .then_some((self.params.theta, self.gradient.as_slice())),
             previous: self.conformation_prev.as_deref(),
         };
+        let stress: Option<&dyn PolymerStress> = if self.params.has_polymer() {
+            Some(&stress)
+        } else {
+            None
+        };
         let mut sol = self
             .stokes
-            .solve_with(force, Some(&stress))
+            .solve_with(force, stress)
             .map_err(|source| ViscoelasticError::Flow { step, source })?;
-        let ft = self.stokes.timings;
         self.body_force = self.control_flow_rate(&mut sol.u, &mut sol.p, &mut sol.reaction);
         self.reaction = std::mem::take(&mut sol.reaction);
         self.rigid = std::mem::take(&mut sol.rigid);
+        Ok(FlowSolution {
+            step,
+            u: sol.u,
+            p: sol.p,
+            g: sol.g,
+            started,
+        })
+    }
+
+    /// 2.–5. solve_stress: G^{n+1} (decoupled DEVSS-G), s^{n+1} by SUPG/BDF2, c^{n+1} = Π exp(s),
+    /// the steady test, and the fields advanced to the flow `solution` of this step. Without
+    /// polymer only the step count and the fields advance.
+    ///
+    /// # Errors
+    /// [`ViscoelasticError::Stress`] if the stress solve or a projection fails.
+    pub fn solve_stress(
+        &mut self,
+        solution: FlowSolution,
+    ) -> Result<StepReport, ViscoelasticError> {
+        let FlowSolution {
+            step,
+            u,
+            p,
+            g,
+            started: t_step,
+        } = solution;
+        let dt = self.params.dt;
+        if !self.params.has_polymer() {
+            // Stokes flow: s = 0 stays, only the step count advances
+            self.history.push(self.history.current.clone());
+            return Ok(self.finish_step(step, u, p, 0.0, 0.0, t_step));
+        }
         // 2. project_gradient
         let t0 = Instant::now();
-        match sol.g {
+        match g {
             Some(g) => self.gradient = g,
             None => {
                 self.projection
-                    .project_velocity_gradient(&self.mesh, &sol.u, &mut self.gradient)?
+                    .project_velocity_gradient(&self.mesh, &u, &mut self.gradient)?
             }
         }
         let gradient_projection = t0.elapsed().as_secs_f64();
         // 3. solve_stress
         let flow = TransportFlow {
-            velocity: &sol.u,
+            velocity: &u,
             mesh_velocity: self.mesh_velocity.as_deref(),
             gradient: &self.gradient,
         };
@@ -904,19 +990,40 @@ impl ViscoelasticFlow {
             &mut self.conformation,
         )?;
         let conformation_projection = t1.elapsed().as_secs_f64();
-        // 5. steady test
+        Ok(self.finish_step(
+            step,
+            u,
+            p,
+            gradient_projection,
+            conformation_projection,
+            t_step,
+        ))
+    }
+
+    /// 5. The steady test of the step just solved (u^{n+1} = `u`), and the fields and time
+    /// advanced to it.
+    fn finish_step(
+        &mut self,
+        step: usize,
+        u: Vec<[f64; 2]>,
+        p: Vec<f64>,
+        gradient_projection: f64,
+        conformation_projection: f64,
+        t_step: Instant,
+    ) -> StepReport {
+        let ft = self.stokes.timings;
         let fluid = &self.fluid_node;
-        let (du_node, du_max) = arg_max(self.velocity.iter().zip(&sol.u).zip(fluid).map(
-            |((x, y), &f)| {
+        let (du_node, du_max) =
+            arg_max(self.velocity.iter().zip(&u).zip(fluid).map(|((x, y), &f)| {
                 if f {
                     (x[0] - y[0]).abs().max((x[1] - y[1]).abs())
                 } else {
                     0.0
                 }
-            },
-        ));
+            }));
         let node_of_vertex = &self.mesh.node_of_vertex;
         let (ds_vertex, ds_max) = match &self.history.previous {
+            _ if !self.params.has_polymer() => (0, 0.0),
             Some(prev) => arg_max(self.history.current.iter().zip(prev).enumerate().map(
                 |(v, (a, b))| {
                     if !fluid[node_of_vertex[v]] {
@@ -928,11 +1035,11 @@ impl ViscoelasticFlow {
             )),
             None => (0, f64::INFINITY),
         };
-        self.velocity = sol.u;
-        self.pressure = sol.p;
-        self.time = step as f64 * dt;
+        self.velocity = u;
+        self.pressure = p;
+        self.time = step as f64 * self.params.dt;
         let tol = self.params.steady_tol;
-        Ok(StepReport {
+        StepReport {
             step,
             time: self.time,
             du_max,
@@ -950,7 +1057,7 @@ impl ViscoelasticFlow {
                 conformation_projection,
                 total: t_step.elapsed().as_secs_f64(),
             },
-        })
+        }
     }
 
     /// Steps until `t_end` (or, if `stop_when_steady`, until the steady criterion holds), calling
@@ -1030,6 +1137,9 @@ impl ViscoelasticFlow {
     /// Polymer stress τ = G(c − I) of the projected conformation cⁿ at the Q1 vertices (inside a
     /// particle: of its extension).
     pub fn polymer_stress(&self) -> Vec<Sym2> {
+        if !self.params.has_polymer() {
+            return Vec::new();
+        }
         let polymer = self.fluid.polymer();
         self.conformation
             .iter()

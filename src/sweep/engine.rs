@@ -26,10 +26,8 @@ const CHECKPOINT_ROWS: usize = 50_000;
 pub struct SweepOptions {
     /// Database file.
     pub db: PathBuf,
-    /// Cases run at once.
+    /// Cases run at once (each on one thread).
     pub jobs: usize,
-    /// Cores available; each case gets max(1, cores / jobs) threads.
-    pub cores: usize,
     /// Rerun cases recorded as `failed`.
     pub retry_failed: bool,
     /// Progress display.
@@ -51,7 +49,6 @@ impl SweepOptions {
         SweepOptions {
             db,
             jobs: cores,
-            cores,
             retry_failed: false,
             progress: ProgressMode::Plain,
             checkpoint_every: Duration::from_secs(60),
@@ -141,7 +138,6 @@ pub fn run_sweep(
             .collect()
     };
     let jobs = opts.jobs.max(1).min(pending.len().max(1));
-    let threads = (opts.cores / jobs).max(1);
     let run_id = store.begin_run(sweep_id, jobs, &sweep.raw.to_string())?;
     let snapshot_dir = opts.snapshot_dir.clone().unwrap_or_else(|| {
         opts.db
@@ -151,7 +147,7 @@ pub fn run_sweep(
     });
     let progress = Progress::new(opts.progress, pending.len());
     progress.log(&format!(
-        "sweep {}: {} cases, {} to run ({} reset after interruption), {jobs} at a time × {threads} threads, database {}",
+        "sweep {}: {} cases, {} to run ({} reset after interruption), {jobs} at a time, database {}",
         sweep.name,
         cases.len(),
         pending.len(),
@@ -174,7 +170,6 @@ pub fn run_sweep(
                 opts,
                 progress: &progress,
                 run_id,
-                threads,
                 snapshot_dir: &snapshot_dir,
             };
             match run_one(case, &ctx) {
@@ -226,7 +221,6 @@ struct CaseContext<'a> {
     opts: &'a SweepOptions,
     progress: &'a Progress,
     run_id: i64,
-    threads: usize,
     snapshot_dir: &'a PathBuf,
 }
 
@@ -257,9 +251,7 @@ fn run_one(
     if let Some(r) = saved {
         rec.resume_from(r);
     }
-    let result = catch_unwind(AssertUnwindSafe(|| {
-        ctx.runner.run(&case.spec, ctx.threads, &mut rec)
-    }));
+    let result = catch_unwind(AssertUnwindSafe(|| ctx.runner.run(&case.spec, &mut rec)));
     let (status, steps, t) = match result {
         Ok(r) => (r.status, r.steps, r.t),
         Err(payload) => {
@@ -270,9 +262,10 @@ fn run_one(
                 .unwrap_or_else(|| "unknown panic".into());
             let t = rec.last.as_ref().map_or(0.0, |s| s.t);
             let steps = rec.last.as_ref().map_or(0, |s| s.step);
+            // a panic is a broken contract of the code, not physics: the case failed
             (
-                RunStatus::Diverged {
-                    reason: format!("solver panicked: {msg}"),
+                RunStatus::Failed {
+                    error: format!("panicked at step {steps}: {msg}"),
                 },
                 steps,
                 t,

@@ -13,6 +13,4 @@ pub mod solver_runner;
 
 pub use engine::{run_sweep, SweepOptions, SweepSummary};
 pub use expand::{case_id, expand, PlannedCase};
-pub use runner::{
-    default_runner, CaseResult, CaseRunner, FakeBehaviour, FakeRunner, RunStatus, UnbuiltSolver,
-};
+pub use runner::{default_runner, CaseResult, CaseRunner, FakeBehaviour, FakeRunner, RunStatus};

@@ -1,70 +1,20 @@
-//! The interface between the sweep engine and whatever simulates a case ([`CaseRunner`]), the placeholder
-//! runner used until the solver exists, and a deterministic fake runner for tests.
+//! The interface between the sweep engine and whatever simulates a case ([`CaseRunner`]), and a
+//! deterministic fake runner for tests.
 
 use std::time::Duration;
 
 use crate::config::CaseSpec;
 use crate::observe::{synthetic, CaseObserver, Control, OutcomeKind};
 
-/// How a run ended.
-#[derive(Debug, Clone, PartialEq)]
-pub enum RunStatus {
-    /// Reached the end time, or stopped because the observer asked to.
-    Finished,
-    /// The numerics broke down (non-convergence, NaN, ...): recorded as outcome `diverged` with the reason.
-    Diverged {
-        /// What went wrong, e.g. "Newton solve did not converge at step 120 (residual 3e2)".
-        reason: String,
-    },
-    /// The run could not be carried out (I/O, unsupported option, ...): recorded as status `failed`.
-    Failed {
-        /// The error.
-        error: String,
-    },
-}
-
-/// Result of one run.
-#[derive(Debug, Clone, PartialEq)]
-pub struct CaseResult {
-    /// How it ended.
-    pub status: RunStatus,
-    /// Number of time steps taken.
-    pub steps: u64,
-    /// Simulated time reached.
-    pub t: f64,
-}
+pub use crate::simulate::{CaseResult, RunStatus};
 
 /// Something that simulates cases. Implementations must be deterministic for a given spec and call the
-/// observer as described in [`CaseObserver`]. `threads` is the number of threads the run may use (cases ×
-/// threads ≤ cores).
+/// observer as described in [`CaseObserver`]. A case runs on one thread (cases run in parallel).
 pub trait CaseRunner: Sync {
     /// `Ok` if this runner can simulate `case`, otherwise the reason (shown to the user).
     fn supports(&self, case: &CaseSpec) -> Result<(), String>;
     /// Simulates `case`, reporting to `obs`.
-    fn run(&self, case: &CaseSpec, threads: usize, obs: &mut dyn CaseObserver) -> CaseResult;
-}
-
-/// The runner `xpflow sweep` uses until the solver provides one: it supports nothing.
-#[derive(Debug, Clone, Copy, Default)]
-pub struct UnbuiltSolver;
-
-impl CaseRunner for UnbuiltSolver {
-    fn supports(&self, case: &CaseSpec) -> Result<(), String> {
-        Err(format!(
-            "the solver for {} is not built yet",
-            case.geometry.kind()
-        ))
-    }
-
-    fn run(&self, case: &CaseSpec, _threads: usize, _obs: &mut dyn CaseObserver) -> CaseResult {
-        CaseResult {
-            status: RunStatus::Failed {
-                error: format!("the solver for {} is not built yet", case.geometry.kind()),
-            },
-            steps: 0,
-            t: 0.0,
-        }
-    }
+    fn run(&self, case: &CaseSpec, obs: &mut dyn CaseObserver) -> CaseResult;
 }
 
 /// The runner the CLI uses: the solver-backed one.
@@ -118,7 +68,7 @@ impl CaseRunner for FakeRunner {
         }
     }
 
-    fn run(&self, case: &CaseSpec, _threads: usize, obs: &mut dyn CaseObserver) -> CaseResult {
+    fn run(&self, case: &CaseSpec, obs: &mut dyn CaseObserver) -> CaseResult {
         let behaviour = (self.behaviour)(case);
         let kind = match &behaviour {
             FakeBehaviour::Produce(k) => *k,

@@ -7,10 +7,11 @@
 //!   a fine-Δt reference measures the time discretization alone: the temporary ALE map, BDF2
 //!   with an Euler first step and the predictor. Expected order 2 (Fig. 5.6).
 
+use crate::geometry::ConfinedShear;
 use crate::mesh::{Axis, Mesh};
 use crate::solver::ale::Remap;
 use crate::solver::constitutive_stress::Coupling;
-use crate::solver::moving::{MovingEnd, MovingError, MovingParticles, ShearDomain};
+use crate::solver::moving::{MovingEnd, MovingError, MovingParticles};
 use crate::solver::rigid::{Motion, WeakForm};
 use crate::solver::viscoelastic::ViscoelasticParams;
 use crate::xfem::CutOptions;
@@ -69,7 +70,7 @@ pub fn translating_cylinder(
         Frame::Channel => ([1.0, 0.0], 0.0),
         Frame::Cylinder => ([0.0, 0.0], -1.0),
     };
-    let domain = ShearDomain {
+    let domain = ConfinedShear {
         h: 4.0,
         l: 30.0,
         wall_speed: 0.0,

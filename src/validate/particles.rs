@@ -7,8 +7,8 @@ use std::path::Path;
 use crate::config::CaseSpec;
 use crate::observe::outcome::{Classifier, OutcomeKind};
 use crate::observe::{CaseObserver, Control, FieldSnapshot, ParticleState, Sample};
-use crate::sweep::solver_runner::SolverRunner;
-use crate::sweep::{CaseRunner, RunStatus};
+use crate::simulate::run::run_case;
+use crate::simulate::RunStatus;
 
 /// Thesis §5.6.2 (validation.md §2): in Stokes flow l_y = 0.02, 0.04, 0.06 reverse (repel) and
 /// l_y = 0.08, 0.10 pass.
@@ -104,7 +104,7 @@ pub fn two_particles_stokes(
             classifier: Classifier::new(&spec),
             csv: file.as_mut().map(|f| f as &mut dyn Write),
         };
-        let res = SolverRunner.run(&spec, 1, &mut obs);
+        let res = run_case(&spec, &mut obs);
         let outcome = match &res.status {
             RunStatus::Finished => obs.classifier.finish(),
             RunStatus::Diverged { reason } | RunStatus::Failed { error: reason } => {
@@ -246,7 +246,7 @@ fn frame_run(
         pick,
         series: Vec::new(),
     };
-    let res = SolverRunner.run(spec, 1, &mut obs);
+    let res = run_case(spec, &mut obs);
     let error = match res.status {
         RunStatus::Finished => None,
         RunStatus::Diverged { reason } | RunStatus::Failed { error: reason } => Some(reason),

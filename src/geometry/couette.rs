@@ -1,23 +1,15 @@
 //! Circular Couette cell (thesis §3.5.1): the annulus R1 ≤ r ≤ R2 centred at the origin, inner
-//! cylinder rotating counter-clockwise at ω̄, outer cylinder at rest; and the quasi-static Stokes
-//! motion of free particles in it, the same pipeline as the channel's
-//! [`ShearCase`](crate::solver::motion::ShearCase): predict (Eq. 5.45) → classify (cut cells) →
-//! solve the flow with force- and torque-free particles (Eqs. 5.21–5.24, τ = 0) → correct
-//! (trapezoidal, Eqs. 5.54–5.56) → contact check.
+//! cylinder rotating counter-clockwise at ω̄, outer cylinder at rest ([`CouetteGeometry`]), and
+//! the same cell seen from a frame rotating about its axis ([`RotatingCouette`]).
 //!
 //! Scales: the characteristic shear rate is γ̇ = ω̄ R1/(R2 − R1) (so that Wi = λγ̇), with
 //! t* = tγ̇ and ω* = ω/γ̇; the radial position is r* = (r − R1)/(R2 − R1). The undisturbed flow is
 //! u_θ(r) = A r + B/r, A = −ω̄ R1²/(R2² − R1²), B = ω̄ R1² R2²/(R2² − R1²), with the uniform vorticity
 //! 2A.
 
-use crate::fem::linsolve::SolverKind;
+use super::Confinement;
 use crate::mesh::{Axis, Mesh, Side};
-use crate::particles::{correct, find_annulus_contact, predict, RigidState, CONTACT_OVERLAP};
-use crate::solver::cutcells::compute_cuts;
-use crate::solver::motion::{FlowFields, MotionEnd, MotionError, RigidSolve};
-use crate::solver::rigid::{Motion, Particle};
-use crate::solver::stokes::{Stokes, StokesParams};
-use crate::xfem::CutOptions;
+use crate::particles::{find_annulus_contact, Contact};
 
 /// Invalid Couette geometry.
 #[derive(Debug, Clone, PartialEq, thiserror::Error)]
@@ -151,120 +143,57 @@ impl CouetteGeometry {
     }
 }
 
-/// Quasi-static Stokes motion of free particles in a circular Couette cell.
-#[derive(Debug, Clone)]
-pub struct CouetteCase {
-    /// Cylinders and their rotation.
+/// The lab frame (Ω = 0).
+impl Confinement for CouetteGeometry {
+    fn period(&self) -> Option<f64> {
+        None
+    }
+
+    fn wall_velocity(&self, side: Side, x: [f64; 2]) -> [f64; 2] {
+        CouetteGeometry::wall_velocity(self, side, x)
+    }
+
+    fn contact(&self, x: &[[f64; 2]], radius: &[f64], min_gap: f64) -> Option<Contact> {
+        find_annulus_contact(x, radius, (self.r1(), self.r2()), min_gap)
+    }
+
+    fn shear_rate(&self) -> f64 {
+        CouetteGeometry::shear_rate(self)
+    }
+}
+
+/// The Couette cell seen from a frame rotating counter-clockwise at Ω about the axis: inner wall
+/// at ω̄ − Ω, outer wall at −Ω. Inertialless flow with an objective constitutive model is the
+/// same in a rigidly rotating frame, so a frame turning with a particle's orbit keeps the particle
+/// nearly at rest on the (rotationally symmetric) mesh; velocities are relative to the frame
+/// (ω_lab = ω + Ω).
+#[derive(Debug, Clone, Copy)]
+pub struct RotatingCouette {
+    /// The cell.
     pub geometry: CouetteGeometry,
-    /// Viscosity.
-    pub eta: f64,
-    /// Particle radii.
-    pub radius: Vec<f64>,
-    /// Initial centres.
-    pub x0: Vec<[f64; 2]>,
-    /// Elements around and across (uniform).
-    pub mesh: [usize; 2],
-    /// Time step.
-    pub dt: f64,
-    /// End time.
-    pub t_end: f64,
-    /// Cut-cell quadrature options.
-    pub cut: CutOptions,
+    /// Frame angular velocity Ω (counter-clockwise positive).
+    pub frame: f64,
 }
 
-impl CouetteCase {
-    /// The mesh of the gap.
-    pub fn build_mesh(&self) -> Mesh {
-        self.geometry.build_mesh(self.mesh[0], self.mesh[1])
+impl Confinement for RotatingCouette {
+    fn period(&self) -> Option<f64> {
+        None
     }
 
-    /// Velocities (U, ω) of free particles at centres `x` (ω counter-clockwise positive) and the
-    /// flow. The annulus elements carry physical coordinates across the θ seam, so the cut cells
-    /// need no period.
-    pub fn rigid_velocities(
-        &self,
-        mesh: &Mesh,
-        x: &[[f64; 2]],
-        step: u64,
-    ) -> Result<RigidSolve, MotionError> {
-        let particles: Vec<Particle> = x
-            .iter()
-            .zip(&self.radius)
-            .map(|(&center, &radius)| Particle {
-                center,
-                radius,
-                motion: Motion::Free,
-            })
-            .collect();
-        let cuts = compute_cuts(mesh, &particles, None, self.cut)
-            .map_err(|source| MotionError::Cut { step, source })?;
-        let mut st = Stokes::with_particles(
-            mesh.clone(),
-            StokesParams::new(self.eta, 0.0, SolverKind::Lblt),
-            particles.clone(),
-            cuts,
-        );
-        let g = self.geometry;
-        st.set_velocity(Side::Bottom, move |x| g.wall_velocity(Side::Bottom, x));
-        st.set_velocity(Side::Top, move |x| g.wall_velocity(Side::Top, x));
-        st.pin_pressure();
-        let sol = st
-            .solve(&|_| [0.0, 0.0])
-            .map_err(|source| MotionError::Solve { step, source })?;
-        let u: Vec<[f64; 2]> = sol.rigid.iter().map(|r| [r[0], r[1]]).collect();
-        let omega: Vec<f64> = sol.rigid.iter().map(|r| r[2]).collect();
-        if u.iter().flatten().chain(&omega).any(|v| !v.is_finite()) {
-            return Err(MotionError::NonFinite { step });
-        }
-        let fields = FlowFields {
-            u: sol.u,
-            p: sol.p,
-            particles,
-            tau: Vec::new(),
-        };
-        Ok(RigidSolve { u, omega, fields })
+    /// The lab wall velocity minus the frame's rigid rotation Ω × x.
+    fn wall_velocity(&self, side: Side, x: [f64; 2]) -> [f64; 2] {
+        let w = self.geometry.wall_velocity(side, x);
+        [w[0] + self.frame * x[1], w[1] - self.frame * x[0]]
     }
 
-    /// Runs to `t_end`; `on_step(step, t, state, mesh, fields)` is called after every step (and
-    /// with step 0 for the initial state, whose velocities are solved too) with the flow of that
-    /// step's solve (at the predicted configuration), and returns false to stop.
-    pub fn run(
-        &self,
-        on_step: &mut dyn FnMut(u64, f64, &RigidState, &Mesh, &FlowFields) -> bool,
-    ) -> Result<MotionEnd, MotionError> {
-        let mesh = self.build_mesh();
-        let mut cur = RigidState::at_rest(self.x0.clone());
-        let first = self.rigid_velocities(&mesh, &cur.x, 0)?;
-        cur.u = first.u;
-        cur.omega = first.omega;
-        if !on_step(0, 0.0, &cur, &mesh, &first.fields) {
-            return Ok(MotionEnd::Stopped);
-        }
-        let mut prev: Option<RigidState> = None;
-        // the end time counts as reached within round-off of t_end/dt
-        let n_steps = (self.t_end / self.dt - 1e-9).ceil() as u64;
-        let cylinders = (self.geometry.r1, self.geometry.r2);
-        let min_radius = self.radius.iter().copied().fold(f64::INFINITY, f64::min);
-        let min_gap = -CONTACT_OVERLAP * min_radius;
-        for step in 1..=n_steps {
-            let x_pred = predict(prev.as_ref(), &cur);
-            if let Some(c) = find_annulus_contact(&x_pred, &self.radius, cylinders, min_gap) {
-                return Ok(MotionEnd::Contact(c));
-            }
-            let solved = self.rigid_velocities(&mesh, &x_pred, step)?;
-            let next = correct(&cur, &solved.u, &solved.omega, self.dt, prev.is_none());
-            prev = Some(std::mem::replace(&mut cur, next));
-            if !on_step(step, step as f64 * self.dt, &cur, &mesh, &solved.fields) {
-                return Ok(MotionEnd::Stopped);
-            }
-            if let Some(c) = find_annulus_contact(&cur.x, &self.radius, cylinders, min_gap) {
-                return Ok(MotionEnd::Contact(c));
-            }
-        }
-        Ok(MotionEnd::EndTime)
+    fn contact(&self, x: &[[f64; 2]], radius: &[f64], min_gap: f64) -> Option<Contact> {
+        self.geometry.contact(x, radius, min_gap)
+    }
+
+    fn shear_rate(&self) -> f64 {
+        CouetteGeometry::shear_rate(&self.geometry)
     }
 }
-
 #[cfg(test)]
 mod tests {
     use super::*;

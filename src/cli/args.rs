@@ -1,0 +1,208 @@
+//! The command line: commands, their arguments and value types (clap).
+
+use clap::{Parser, Subcommand, ValueEnum};
+
+use super::sweep_cmds;
+use crate::fem::linsolve::SolverKind;
+
+/// xpflow: rigid particles in viscoelastic fluids (XFEM), with parameter sweeps.
+#[derive(Debug, Parser)]
+#[command(name = "xpflow", version, about, long_about = None)]
+pub struct Cli {
+    /// What to do.
+    #[command(subcommand)]
+    pub command: Command,
+}
+
+/// Subcommands.
+#[derive(Debug, Subcommand)]
+pub enum Command {
+    /// Run one case (a case file: the `[base]` table of a sweep file) and write its trajectories.
+    Run {
+        /// Case file.
+        case: std::path::PathBuf,
+        /// Print every resolved numerical setting of the case (all defaults filled in) and
+        /// run nothing.
+        #[arg(long)]
+        resolved: bool,
+    },
+    /// Expand a sweep file into cases and run them (resumable).
+    Sweep(sweep_cmds::SweepArgs),
+    /// Print results tables from a results database.
+    Query(sweep_cmds::QueryArgs),
+    /// Per-sweep counts of done / running / failed / pending cases.
+    Status(sweep_cmds::StatusArgs),
+    /// Run a validation study and print its numbers and verdict.
+    Validate {
+        /// Which study.
+        study: Study,
+        /// Number of mesh levels for convergence studies.
+        #[arg(long, default_value_t = 4)]
+        levels: usize,
+        /// Linear solver.
+        #[arg(long, value_enum, default_value_t = SolverArg::Lblt)]
+        solver: SolverArg,
+        /// Weissenberg number (cylinder study).
+        #[arg(long, default_value_t = 0.0)]
+        wi: f64,
+        /// Element sizes near the cylinder, in units of R (cylinder study; comma-separated,
+        /// coarse to fine; the verdict is the finest one's). Default: 0.1,0.05,0.03 for Wi = 0;
+        /// for Wi > 0 one mesh that runs in a minute or two (0.1 up to Wi = 0.45, 0.07 above).
+        #[arg(long, alias = "mesh", value_delimiter = ',')]
+        h: Option<Vec<f64>>,
+        /// Directory for CSV output (trajectories).
+        #[arg(long, default_value = "results/validate")]
+        out: std::path::PathBuf,
+        /// Time step (viscoelastic cylinder study).
+        #[arg(long, default_value_t = 0.01)]
+        dt: f64,
+        /// Longest simulated time before giving up on the steady state (viscoelastic cylinder).
+        #[arg(long, default_value_t = 20.0)]
+        t_max: f64,
+        /// Quadtree levels of the cut-cell quadrature (default: the cases' default).
+        #[arg(long, default_value_t = crate::config::DEFAULT_QUADTREE_LEVEL)]
+        cut_level: u32,
+        /// Interface in the finest cut sub-squares (default: the cases' default).
+        #[arg(long, value_enum, default_value_t = InterfaceArg::Parabolic)]
+        interface: InterfaceArg,
+    },
+    /// Run a performance benchmark.
+    Bench {
+        /// Which benchmark.
+        name: BenchName,
+        /// Mesh as NXxNY (elements), e.g. 200x50 (moving benchmark: comma-separated list).
+        #[arg(long, default_value = "200x50")]
+        mesh: String,
+        /// Linear solver.
+        #[arg(long, value_enum, default_value_t = SolverArg::Lblt)]
+        solver: SolverArg,
+        /// Include the DEVSS-G unknowns (stokes benchmark; moving benchmark: coupled DEVSS-G
+        /// instead of the lagged Gⁿ).
+        #[arg(long)]
+        with_g: bool,
+        /// Repeated solves after the first (median reported).
+        #[arg(long, default_value_t = 5)]
+        repeats: usize,
+        /// Number of particles (moving benchmark; comma-separated for several runs).
+        #[arg(long, value_delimiter = ',', default_values_t = vec![3])]
+        particles: Vec<usize>,
+        /// Element sizes near the cylinder in units of R (drag benchmark; comma-separated).
+        #[arg(long, value_delimiter = ',', default_values_t = vec![0.2, 0.1, 0.05, 0.03])]
+        h: Vec<f64>,
+        /// Quadtree levels of the cut-cell quadrature (drag and moving benchmarks; default: the
+        /// cases').
+        #[arg(long, default_value_t = crate::config::DEFAULT_QUADTREE_LEVEL)]
+        cut_level: u32,
+        /// Interface in the finest cut sub-squares (drag and moving benchmarks; default: the
+        /// cases').
+        #[arg(long, value_enum, default_value_t = InterfaceArg::Parabolic)]
+        interface: InterfaceArg,
+        /// Moving benchmark: a mesh that follows the particles along x, columns this many times
+        /// finer around each (`numerics.follow.ratio`).
+        #[arg(long)]
+        follow: Option<f64>,
+    },
+}
+
+/// Validation studies.
+#[derive(Debug, Clone, Copy, ValueEnum)]
+pub enum Study {
+    /// Manufactured solution, periodic channel and annulus, with and without DEVSS-G.
+    StokesMms,
+    /// Plane and circular Couette flow.
+    Couette,
+    /// Newtonian / Oldroyd-B drag on the confined cylinder (Ch. 2): prints `K = <value>`.
+    Cylinder,
+    /// XFEM Stokes around a cylinder with the exact solution of thesis §2.4 (rates).
+    XfemStokes,
+    /// Free particle at the centre of plane Couette flow: ω/γ̇ against confinement 2a/H.
+    FreeParticle,
+    /// Two particles in confined Stokes shear flow (thesis §5.6.2): reverse / pass.
+    TwoParticles,
+    /// Translating cylinder in a Giesekus fluid (thesis §5.4): order in Δt of K(t), 0 ≤ t ≤ λ,
+    /// over Δt = 0.04 … 0.005 against Δt = 0.0025, on the first `--h` (units of a).
+    TranslatingCylinder,
+    /// The translating cylinder held at rest with η_s = 0.1 and the explicit coupling: order in
+    /// Δt (0.02 … 0.005 against 0.0025) with the lagged Gⁿ and with G as flow unknowns, on the
+    /// first `--h`; the verdict asks second order of the latter.
+    ExplicitCoupling,
+    /// A particle crossing the fixed mesh (thesis §5.5, Y0/H = 0.1, 160×80, 0.66 elements per
+    /// step) in the lab frame against a frame moving with it: ω*, V* per history remap up to
+    /// t* = 2.5 (≈ 4 min); the verdict is the default (bicubic) remap's.
+    LabFrame,
+    /// The Couette particle (thesis §3.5.2, 30×160) up to t* = 10 in the rotating frame, in the
+    /// lab frame on the fixed mesh and on a mesh that follows it (≈ 6 min); the verdict asks
+    /// the following mesh's r*(10) to be within 1e-3 of the rotating frame's.
+    CouetteFrame,
+}
+
+/// Benchmarks.
+#[derive(Debug, Clone, Copy, ValueEnum)]
+pub enum BenchName {
+    /// One Stokes (Q2/Q1) solve: assembly, symbolic, numeric, refactor, solve.
+    Stokes,
+    /// The unfitted Stokes drag problem (confined cylinder, Wi = 0): K, its error and the time of
+    /// each phase, for element sizes `--h`.
+    Drag,
+    /// One viscoelastic time step with moving particles in confined shear flow (thesis §5.7
+    /// set-up) on `--mesh` with `--particles`: every phase, medians over `--repeats` steps.
+    Moving,
+}
+
+/// Linear solver choice.
+#[derive(Debug, Clone, Copy, ValueEnum)]
+pub enum SolverArg {
+    /// Symmetric indefinite LBLᵀ.
+    Lblt,
+    /// General LU.
+    Lu,
+}
+
+impl From<SolverArg> for SolverKind {
+    fn from(s: SolverArg) -> Self {
+        match s {
+            SolverArg::Lblt => SolverKind::Lblt,
+            SolverArg::Lu => SolverKind::Lu,
+        }
+    }
+}
+
+/// Parses `NXxNY`.
+pub(super) fn parse_mesh(s: &str) -> anyhow::Result<(usize, usize)> {
+    let (a, b) = s
+        .split_once(['x', 'X'])
+        .ok_or_else(|| anyhow::anyhow!("--mesh must look like 200x50, got '{s}'"))?;
+    let (nx, ny) = (a.trim().parse()?, b.trim().parse()?);
+    anyhow::ensure!(
+        nx > 0 && ny > 0,
+        "--mesh needs positive element counts, got '{s}'"
+    );
+    Ok((nx, ny))
+}
+
+/// Interface representation of the cut-cell quadrature (`numerics.interface`).
+#[derive(Debug, Clone, Copy, ValueEnum)]
+pub enum InterfaceArg {
+    /// Parabolic chords (the default of cases).
+    Parabolic,
+    /// Straight chords (the thesis').
+    Linear,
+}
+
+impl From<InterfaceArg> for crate::config::InterfaceRule {
+    fn from(i: InterfaceArg) -> Self {
+        match i {
+            InterfaceArg::Parabolic => crate::config::InterfaceRule::Parabolic,
+            InterfaceArg::Linear => crate::config::InterfaceRule::Linear,
+        }
+    }
+}
+
+/// Cut-cell quadrature with `level` quadtree levels and the `interface` rule, as a case with
+/// those `numerics` would use.
+pub(super) fn cut_options(level: u32, interface: InterfaceArg) -> crate::xfem::CutOptions {
+    crate::xfem::CutOptions {
+        level,
+        interface: crate::simulate::settings::interface_approx(interface.into()),
+    }
+}

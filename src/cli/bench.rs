@@ -1,0 +1,69 @@
+//! `xpflow bench`: runs a benchmark of `crate::bench` and prints its markdown rows.
+
+use std::process::ExitCode;
+
+use super::args::{cut_options, parse_mesh, BenchName, Command};
+
+/// Runs the benchmark of a `Command::Bench`.
+///
+/// # Errors
+/// A bad `--mesh`, or the benchmark's own failure.
+pub(super) fn bench(command: Command) -> anyhow::Result<ExitCode> {
+    let Command::Bench {
+        name,
+        mesh,
+        solver,
+        with_g,
+        repeats,
+        particles,
+        h,
+        cut_level,
+        interface,
+        follow,
+    } = command
+    else {
+        unreachable!("bench is called with the bench command")
+    };
+    match name {
+        BenchName::Moving => {
+            println!("{}", crate::bench::MovingBench::HEADER);
+            for m in mesh.split(',') {
+                let (nx, ny) = parse_mesh(m)?;
+                for &n in &particles {
+                    let cut = Some((cut_level, interface.into()));
+                    let b =
+                        crate::bench::moving(nx, ny, n, 3, repeats.max(1), with_g, follow, cut)?;
+                    println!("{}", b.to_row());
+                }
+            }
+        }
+        BenchName::Stokes => {
+            let (nx, ny) = parse_mesh(&mesh)?;
+            let b = crate::bench::stokes(nx, ny, solver.into(), with_g, repeats)?;
+            println!("{b}");
+        }
+        BenchName::Drag => {
+            use crate::solver::rigid::WeakForm;
+            use crate::validate::xstokes::{cylinder_drag, NEWTONIAN_K};
+            println!("| h/R | unknowns | K | rel. error | cut cells | assembly | symbolic | numeric | solve | total |");
+            println!("|---|---|---|---|---|---|---|---|---|---|");
+            for hh in h {
+                let r = cylinder_drag(hh, WeakForm::Symmetric, cut_options(cut_level, interface))?;
+                let t = r.timings;
+                println!(
+                    "| {hh} | {} | {:.4} | {:.1e} | {:.3} | {:.3} | {:.3} | {:.3} | {:.3} | {:.2} s |",
+                    r.dofs,
+                    r.k_reaction,
+                    ((r.k_reaction - NEWTONIAN_K) / NEWTONIAN_K).abs(),
+                    r.cut_seconds,
+                    t.assembly,
+                    t.symbolic,
+                    t.numeric,
+                    t.solve,
+                    r.seconds
+                );
+            }
+        }
+    }
+    Ok(ExitCode::SUCCESS)
+}

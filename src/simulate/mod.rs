@@ -1,0 +1,210 @@
+//! One path from a validated case to a running simulation: [`Simulation::new`] builds a
+//! [`CaseSpec`]'s set-up (`crate::geometry`), mesh or following mesh, fluid, particles, cut rule,
+//! history remap and frame — every numerical default resolved once in [`Settings`] — and
+//! [`Simulation::run`] steps it, reporting every step to a [`CaseObserver`]. The sweep runner,
+//! `xpflow run`, the particle validations and `xpflow bench moving` all build their cases here,
+//! so that what is validated is what users run.
+//!
+//! Supported: free particles in confined shear flow and in the circular Couette cell, with or
+//! without polymer (without: quasi-static Stokes motion through the same stepper). The
+//! cylinder-channel benchmark is a fixed body, computed by `xpflow validate cylinder`.
+
+pub mod frame;
+pub mod run;
+pub mod settings;
+pub mod snapshot;
+
+pub use frame::Frame;
+pub use run::{CaseResult, RunStatus};
+pub use settings::Settings;
+
+use crate::config::{CaseSpec, Geometry};
+use crate::geometry::{ConfinedShear, CouetteError, CouetteGeometry, RotatingCouette, SetUp};
+use crate::observe::{FieldSnapshot, Sample};
+use crate::solver::moving::{
+    ComputationalMesh, MovingCheckpoint, MovingError, MovingParticles, StepOutcome,
+};
+use crate::solver::rigid::{Motion, Particle};
+use snapshot::{in_lab, snapshot, FlowFields};
+
+/// Why a case cannot be set up.
+#[derive(Debug, thiserror::Error)]
+pub enum SetupError {
+    /// The case is of a kind no simulation is built for.
+    #[error("{0}")]
+    Unsupported(String),
+    /// Invalid Couette cylinders.
+    #[error(transparent)]
+    Couette(#[from] CouetteError),
+    /// The first solve or the geometry failed.
+    #[error(transparent)]
+    Solver(#[from] MovingError),
+}
+
+/// A case in progress: the moving-particle stepper in the case's set-up and frame.
+pub struct Simulation {
+    settings: Settings,
+    stepper: MovingParticles<SetUp>,
+    frame: Frame,
+    radius: f64,
+}
+
+impl Simulation {
+    /// `Ok` if a simulation can be built for `case`, otherwise the reason (shown to the user
+    /// before anything runs).
+    ///
+    /// # Errors
+    /// The reason, for cases without particles and for the cylinder-channel benchmark.
+    pub fn supports(case: &CaseSpec) -> Result<(), String> {
+        match case.geometry {
+            Geometry::ConfinedShear { .. } | Geometry::Couette { .. } if case.radius().is_none() => {
+                Err(format!(
+                    "{} without particles has nothing to simulate",
+                    case.geometry.kind()
+                ))
+            }
+            Geometry::ConfinedShear { .. } | Geometry::Couette { .. } => Ok(()),
+            Geometry::CylinderChannel { .. } => Err(
+                "the cylinder-channel benchmark runs with `xpflow validate cylinder`, not as a case"
+                    .into(),
+            ),
+        }
+    }
+
+    /// The set-up of a case in the frame it is solved in.
+    ///
+    /// # Errors
+    /// [`SetupError::Unsupported`] for the cylinder channel, [`SetupError::Couette`] for
+    /// invalid cylinders.
+    pub fn set_up(case: &CaseSpec) -> Result<SetUp, SetupError> {
+        let frame = Frame::of(case);
+        match case.geometry {
+            // a frame translating at U_f: walls at −U_f ± U_w/2
+            Geometry::ConfinedShear { h, l, wall_speed } => {
+                Ok(SetUp::ConfinedShear(ConfinedShear {
+                    h,
+                    l,
+                    wall_speed,
+                    drift: -frame.velocity(),
+                }))
+            }
+            Geometry::Couette {
+                r1,
+                r2,
+                omega_inner,
+            } => Ok(SetUp::Couette(RotatingCouette {
+                geometry: CouetteGeometry::new(r1, r2, omega_inner)?,
+                frame: frame.spin(),
+            })),
+            Geometry::CylinderChannel { .. } => {
+                Err(SetupError::Unsupported(Self::supports(case).unwrap_err()))
+            }
+        }
+    }
+
+    /// Builds the case and solves its initial flow (the particles' initial velocities).
+    ///
+    /// # Errors
+    /// [`SetupError`] if the case is unsupported or its geometry or first solve fails.
+    pub fn new(case: &CaseSpec) -> Result<Simulation, SetupError> {
+        Self::supports(case).map_err(SetupError::Unsupported)?;
+        let settings = Settings::of(case);
+        let set_up = Self::set_up(case)?;
+        let (Some(radius), Some(base)) = (case.radius(), case.base_mesh()) else {
+            unreachable!("a supported case has particles and a mesh")
+        };
+        let mesh: ComputationalMesh = match case.following_mesh() {
+            Some(follow) => follow.into(),
+            None => base.into(),
+        };
+        let mut stepper = MovingParticles::free(
+            mesh,
+            settings::fluid_params(case),
+            set_up,
+            case.initial_positions(),
+            radius,
+            settings::cut_options(case),
+        )?;
+        stepper.set_remap(settings::ale_remap(case.numerics.remap));
+        Ok(Simulation {
+            settings,
+            stepper,
+            frame: Frame::of(case),
+            radius,
+        })
+    }
+
+    /// The resolved numerical settings.
+    pub fn settings(&self) -> &Settings {
+        &self.settings
+    }
+
+    /// One time step (see [`MovingParticles::step`]).
+    ///
+    /// # Errors
+    /// As [`MovingParticles::step`].
+    pub fn step(&mut self) -> Result<StepOutcome, MovingError> {
+        self.stepper.step()
+    }
+
+    /// Steps taken.
+    pub fn steps(&self) -> u64 {
+        self.stepper.flow().history().steps() as u64
+    }
+
+    /// Current time.
+    pub fn time(&self) -> f64 {
+        self.stepper.time()
+    }
+
+    /// The stepper (for benchmarks and studies that read the flow).
+    pub fn stepper(&self) -> &MovingParticles<SetUp> {
+        &self.stepper
+    }
+
+    /// The particles now, in the lab frame.
+    pub fn sample(&self) -> Sample {
+        frame::sample(self.steps(), self.time(), self.stepper.state(), self.frame)
+    }
+
+    /// The fields now on the Q2 nodes, in the lab frame.
+    pub fn snapshot(&self) -> FieldSnapshot {
+        let flow = self.stepper.flow();
+        let fields = FlowFields {
+            u: flow.velocity().to_vec(),
+            p: flow.pressure().to_vec(),
+            tau: flow.polymer_stress(),
+            particles: self
+                .stepper
+                .state()
+                .x
+                .iter()
+                .map(|&center| Particle {
+                    center,
+                    radius: self.radius,
+                    motion: Motion::Free,
+                })
+                .collect(),
+        };
+        let period = crate::geometry::Confinement::period(self.stepper.domain());
+        in_lab(
+            snapshot(self.steps(), self.time(), flow.mesh(), &fields, period),
+            self.frame,
+        )
+    }
+
+    /// The state after the last step as JSON (what [`restore`](Self::restore) continues from).
+    pub fn checkpoint(&self) -> String {
+        // (serializing plain numbers cannot fail)
+        serde_json::to_string(&self.stepper.checkpoint()).unwrap_or_default()
+    }
+
+    /// Continues from a [`checkpoint`](Self::checkpoint) of the same case.
+    ///
+    /// # Errors
+    /// The reason, if the text is not a checkpoint or does not fit the case.
+    pub fn restore(&mut self, saved: &str) -> Result<(), String> {
+        let cp = serde_json::from_str::<MovingCheckpoint>(saved).map_err(|e| e.to_string())?;
+        self.stepper.restore(cp).map_err(|e| e.to_string())
+    }
+}

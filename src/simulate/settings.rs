@@ -1,0 +1,269 @@
+//! Every numerical setting of a case, resolved from its [`CaseSpec`] with all defaults filled in:
+//! what [`Simulation::new`](super::Simulation::new) builds, and what `xpflow run CASE --resolved`
+//! and `xpflow sweep --dry-run --resolved` print. Numerical defaults are decided here once (the
+//! stress coupling, the flow solver, the cut rule) or in `config` (the serde defaults of the case
+//! fields); no caller chooses them again.
+
+use serde::Serialize;
+
+use crate::config::{CaseSpec, Geometry, HistoryRemap, InterfaceRule, StressCoupling};
+use crate::particles::CONTACT_OVERLAP;
+use crate::solver::ale::Remap;
+use crate::solver::constitutive::GHOST_PENALTY;
+use crate::solver::constitutive_projection::PROJECTION_GHOST_PENALTY;
+use crate::solver::constitutive_stress::Coupling;
+use crate::solver::moving::STEADY_ROTATION_TOL;
+use crate::solver::stokes::FLOW_GHOST_PENALTY;
+use crate::solver::viscoelastic::ViscoelasticParams;
+use crate::xfem::{CutOptions, InterfaceApprox};
+
+/// The resolved numerical settings of a case.
+#[derive(Debug, Clone, PartialEq, Serialize)]
+pub struct Settings {
+    /// `confined_shear` or `couette`.
+    pub geometry: &'static str,
+    /// The mesh.
+    pub mesh: MeshSettings,
+    /// The fluid as the solver sees it.
+    pub fluid: FluidSettings,
+    /// Time stepping.
+    pub time: TimeSettings,
+    /// The flow solve.
+    pub flow: FlowSettings,
+    /// The cut-cell quadrature.
+    pub cut: CutSettings,
+    /// How the history is carried onto the moving configuration (temporary ALE).
+    pub history_remap: &'static str,
+    /// The frame the case is solved in (samples and snapshots are reported in the lab frame).
+    pub frame: FrameSettings,
+    /// Contact: particles closer than −overlap × a (a small overlap) touch.
+    pub contact_overlap: f64,
+    /// Steady rotation (thesis §5.7.2): |ω*(tⁿ⁺¹) − ω*(tⁿ)| below this for every particle.
+    pub steady_rotation_tol: f64,
+}
+
+/// The computational mesh.
+#[derive(Debug, Clone, PartialEq, Serialize)]
+pub struct MeshSettings {
+    /// Elements [along, across] (Couette: [radial, azimuthal]).
+    pub elements: [usize; 2],
+    /// Largest / smallest element across (finest at the centre line or mid-gap).
+    pub grading: f64,
+    /// Largest / smallest element along a channel (finest at x = 0).
+    pub grading_x: f64,
+    /// A mesh that follows the particles: refinement along and across, core and reach in radii.
+    #[serde(skip_serializing_if = "Option::is_none")]
+    pub follow: Option<FollowSettings>,
+}
+
+/// The refinement of a mesh that follows the particles, all defaults filled in.
+#[derive(Debug, Clone, Copy, PartialEq, Serialize)]
+pub struct FollowSettings {
+    /// Refinement along the flow.
+    pub ratio: f64,
+    /// Refinement across the flow.
+    pub ratio_y: f64,
+    /// Half-width of the refined core, in radii.
+    pub core: f64,
+    /// Half-width of the zone beyond which nothing moves, in radii.
+    pub reach: f64,
+}
+
+/// The fluid.
+#[derive(Debug, Clone, PartialEq, Serialize)]
+pub struct FluidSettings {
+    /// Solvent viscosity η_s (the whole viscosity without polymer).
+    pub eta_s: f64,
+    /// Polymer viscosity η_p (0: Stokes flow, no stress transport).
+    pub eta_p: f64,
+    /// Relaxation time λ (0 without polymer).
+    pub lambda: f64,
+    /// Giesekus mobility α.
+    pub alpha: f64,
+}
+
+/// Time stepping.
+#[derive(Debug, Clone, PartialEq, Serialize)]
+pub struct TimeSettings {
+    /// Δt.
+    pub dt: f64,
+    /// End time.
+    pub t_end: f64,
+    /// Steps to the end time.
+    pub steps: usize,
+    /// The scheme.
+    pub scheme: &'static str,
+}
+
+/// The flow solve.
+#[derive(Debug, Clone, PartialEq, Serialize)]
+pub struct FlowSettings {
+    /// How the polymer stress enters (`none` without polymer).
+    pub stress_coupling: &'static str,
+    /// DEVSS-G parameter θ (= η_p), and whether G is a flow unknown.
+    pub devss_theta: f64,
+    /// G as flow unknowns (coupled DEVSS-G).
+    pub coupled_g: bool,
+    /// Sparse direct solver of the flow system.
+    pub solver: &'static str,
+    /// Weak rigid-body condition (thesis Eqs. 5.21–5.24), κ = η0.
+    pub rigid_condition: &'static str,
+    /// Ghost penalty of the flow (γ of velocity and pressure on cut-element faces).
+    pub ghost_penalty: f64,
+    /// Ghost penalty of the log-conformation transport.
+    pub stress_ghost_penalty: f64,
+    /// Ghost penalty of the Q1 projections.
+    pub projection_ghost_penalty: f64,
+}
+
+/// The cut-cell quadrature.
+#[derive(Debug, Clone, PartialEq, Serialize)]
+pub struct CutSettings {
+    /// Interface in the finest sub-squares: `parabolic` or `linear` chords.
+    pub interface: &'static str,
+    /// Quadtree levels.
+    pub quadtree_level: u32,
+}
+
+/// The frame of the solve.
+#[derive(Debug, Clone, PartialEq, Serialize)]
+pub struct FrameSettings {
+    /// Translation velocity along x relative to the lab.
+    pub velocity: f64,
+    /// Rotation rate about the origin relative to the lab (counter-clockwise).
+    pub rotation: f64,
+}
+
+/// The cut-cell quadrature options of a case's `numerics.quadtree_level` and `interface`.
+pub fn cut_options(case: &CaseSpec) -> CutOptions {
+    CutOptions {
+        level: case.numerics.quadtree_level,
+        interface: interface_approx(case.numerics.interface),
+    }
+}
+
+/// The quadrature's representation of an interface rule.
+pub fn interface_approx(rule: InterfaceRule) -> InterfaceApprox {
+    match rule {
+        InterfaceRule::Parabolic => InterfaceApprox::Quadratic,
+        InterfaceRule::Linear => InterfaceApprox::Linear,
+    }
+}
+
+/// The ALE interpolation of a case's `numerics.remap`.
+pub fn ale_remap(remap: HistoryRemap) -> Remap {
+    match remap {
+        HistoryRemap::Bilinear => Remap::Bilinear,
+        HistoryRemap::Biquadratic => Remap::Quadratic,
+        HistoryRemap::Bicubic => Remap::Cubic,
+    }
+}
+
+/// The fluid and stepping parameters of a case: with a polymer (λ > 0) the viscoelastic fluid
+/// with the stress coupling of `numerics.coupling` (`auto`: explicit with LBLᵀ when β > 0, the
+/// semi-implicit stress of thesis Eq. 5.51 when η_s = 0); without one, Stokes flow of viscosity
+/// η_s + η_p.
+pub fn fluid_params(case: &CaseSpec) -> ViscoelasticParams {
+    let (eta_s, eta_p) = (case.solvent_viscosity(), case.polymer_viscosity());
+    let lambda = case.relaxation_time();
+    let (dt, t_end) = (case.numerics.dt, case.numerics.t_end);
+    if lambda == 0.0 {
+        return ViscoelasticParams::newtonian(eta_s + eta_p, dt, t_end);
+    }
+    let mut params = ViscoelasticParams::new(eta_s, eta_p, lambda, case.fluid.alpha, dt, t_end);
+    match case.numerics.coupling {
+        // without solvent viscosity the explicit stress has no viscous term (thesis §5.3.2)
+        StressCoupling::Auto if eta_s == 0.0 => params.coupling = Coupling::SemiImplicit,
+        StressCoupling::Auto | StressCoupling::Explicit => params.coupling = Coupling::Explicit,
+        StressCoupling::ExplicitCoupledG => {
+            params.coupling = Coupling::Explicit;
+            params.coupled_g = true;
+        }
+        StressCoupling::SemiImplicit => params.coupling = Coupling::SemiImplicit,
+    }
+    params
+}
+
+impl Settings {
+    /// The settings a case runs with.
+    pub fn of(case: &CaseSpec) -> Settings {
+        let n = &case.numerics;
+        let params = fluid_params(case);
+        let polymer = params.has_polymer();
+        let (velocity, rotation) = case.solver_frame();
+        let follow = n.follow.map(|f| FollowSettings {
+            ratio: f.ratio,
+            ratio_y: f.ratio_y.unwrap_or(f.ratio),
+            core: f.core,
+            reach: f.reach,
+        });
+        let coupling = match (polymer, params.coupling, params.coupled_g) {
+            (false, _, _) => "none (Stokes flow)",
+            (true, Coupling::Explicit, false) => "explicit (lagged G)",
+            (true, Coupling::Explicit, true) => "explicit (coupled G)",
+            (true, Coupling::SemiImplicit, _) => "semi_implicit",
+        };
+        let lu = params.coupling == Coupling::SemiImplicit && polymer;
+        let cut = cut_options(case);
+        Settings {
+            geometry: case.geometry.kind(),
+            mesh: MeshSettings {
+                elements: n.mesh,
+                grading: n.grading,
+                grading_x: match case.geometry {
+                    Geometry::ConfinedShear { .. } => n.grading_x,
+                    _ => 1.0,
+                },
+                follow,
+            },
+            fluid: FluidSettings {
+                eta_s: params.eta_s,
+                eta_p: params.eta_p,
+                lambda: if polymer { params.lambda } else { 0.0 },
+                alpha: params.alpha,
+            },
+            time: TimeSettings {
+                dt: n.dt,
+                t_end: n.t_end,
+                steps: (n.t_end / n.dt - 1e-9).ceil() as usize,
+                scheme: if polymer {
+                    "BDF2 (Euler first step), predictor-corrector particles"
+                } else {
+                    "quasi-static Stokes, predictor-corrector particles"
+                },
+            },
+            flow: FlowSettings {
+                stress_coupling: coupling,
+                devss_theta: if polymer { params.theta } else { 0.0 },
+                coupled_g: polymer && params.coupled_g,
+                solver: if lu { "LU" } else { "LBLT" },
+                rigid_condition: "symmetric weak condition, kappa = eta0",
+                ghost_penalty: FLOW_GHOST_PENALTY,
+                stress_ghost_penalty: GHOST_PENALTY,
+                projection_ghost_penalty: PROJECTION_GHOST_PENALTY,
+            },
+            cut: CutSettings {
+                interface: match cut.interface {
+                    InterfaceApprox::Quadratic => "parabolic",
+                    InterfaceApprox::Linear => "linear",
+                },
+                quadtree_level: cut.level,
+            },
+            history_remap: match (polymer, n.remap) {
+                (false, _) => "none (no history)",
+                (true, HistoryRemap::Bilinear) => "bilinear",
+                (true, HistoryRemap::Biquadratic) => "biquadratic",
+                (true, HistoryRemap::Bicubic) => "bicubic",
+            },
+            frame: FrameSettings { velocity, rotation },
+            contact_overlap: CONTACT_OVERLAP,
+            steady_rotation_tol: STEADY_ROTATION_TOL,
+        }
+    }
+
+    /// The settings as TOML, one table per group (what `--resolved` prints).
+    pub fn to_toml(&self) -> String {
+        // serializing plain numbers, strings and tables cannot fail
+        toml::to_string_pretty(self).unwrap_or_default()
+    }
+}
