@@ -1,7 +1,8 @@
 //! xpflow: XFEM simulation of rigid particles in viscoelastic fluids, with parameter sweeps.
 //!
-//! Module layering (imports point downward), see `DESIGN.md`:
-//! `config → geometry → mesh → fem → xfem → rheology → solver → particles → observe → sweep/store → cli`.
+//! Module layering, each importing only modules before it (`docs/architecture.md`):
+//! `fem, rheology, particles → mesh → xfem → geometry → config → solver → observe → simulate →
+//! store → sweep → validate, bench → cli`.
 
 // Index loops mirror the tensor notation of the weak forms (i, j, k, l); iterator chains would hide it.
 #![allow(clippy::needless_range_loop)]

@@ -314,9 +314,9 @@ impl StressCoupling {
     }
 }
 
-/// Quadtree levels of the cut-cell quadrature when a case names none: the validated default
-/// (docs/validation.md, "The cut rule": drag K and the §2.4 rates per cost).
-pub const DEFAULT_QUADTREE_LEVEL: u32 = 3;
+/// Quadtree levels of the cut-cell quadrature when a case names none: the quadrature's own
+/// validated default (docs/validation.md, "The cut rule": drag K and the §2.4 rates per cost).
+pub const DEFAULT_QUADTREE_LEVEL: u32 = crate::xfem::DEFAULT_LEVEL;
 
 /// How the interface is represented inside the finest cut sub-squares of the cut-cell quadrature.
 #[derive(Debug, Clone, Copy, Default, PartialEq, Eq, Serialize, Deserialize)]

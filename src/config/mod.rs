@@ -20,7 +20,7 @@ pub use case::{
     Numerics, Output, Particles, Stop, StressCoupling, DEFAULT_QUADTREE_LEVEL,
 };
 pub use error::{ConfigError, SpecError};
-pub use sweep_file::{Axis, SweepSpec};
+pub use sweep_file::{Axis, PlannedCase, SweepSpec};
 pub use validate::MAX_DT_OVER_LAMBDA;
 
 #[cfg(test)]

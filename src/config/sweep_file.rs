@@ -17,6 +17,7 @@ use std::path::{Path, PathBuf};
 
 use serde_json::{Map, Value};
 
+use super::case::CaseSpec;
 use super::error::ConfigError;
 
 /// Keys allowed at the top level of a sweep file.
@@ -378,4 +379,19 @@ mod tests {
             ConfigError::Syntax { .. }
         ));
     }
+}
+
+/// One case of a sweep, ready to run.
+#[derive(Debug, Clone)]
+pub struct PlannedCase {
+    /// 0-based position in the expansion order.
+    pub index: usize,
+    /// Axis values, e.g. `wi=2 n=3` (last path segment, or the full path where that is ambiguous).
+    pub label: String,
+    /// Stable case id: 16 hex digits.
+    pub id: String,
+    /// The validated case.
+    pub spec: CaseSpec,
+    /// The swept fields and their values for this case.
+    pub params: Vec<(String, Value)>,
 }

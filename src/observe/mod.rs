@@ -77,7 +77,8 @@ pub enum Control {
     Stop,
 }
 
-/// What a running case reports to. A [`crate::sweep::CaseRunner`] must call [`CaseObserver::on_step`] after
+/// What a running case reports to. A case runner (`simulate::run::run_case`, the sweep engine's
+/// fake runner) must call [`CaseObserver::on_step`] after
 /// every time step (the steady-state test compares consecutive steps), honour [`Control::Stop`], offer a
 /// snapshot when [`CaseObserver::snapshot_due`] says so, and may call [`CaseObserver::checkpoint`] when it
 /// is a good moment to persist what has been observed so far.

@@ -267,3 +267,70 @@ impl Settings {
         toml::to_string_pretty(self).unwrap_or_default()
     }
 }
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    fn case(numerics: serde_json::Value) -> CaseSpec {
+        CaseSpec::from_value(serde_json::json!({
+            "geometry": { "confined_shear": { "h": 1.0, "l": 4.0, "wall_speed": 1.0 } },
+            "fluid": { "model": "giesekus", "wi": 1.0, "alpha": 0.01, "beta": 0.1 },
+            "particles": { "radius": 0.1, "layout": { "pair": { "lx": 0.5, "ly": 0.02 } } },
+            "numerics": numerics,
+        }))
+        .unwrap()
+    }
+
+    /// One default of the cut rule: a case that names none runs the quadrature's default, the
+    /// one the validations and tests use.
+    #[test]
+    fn a_case_without_a_cut_rule_runs_the_quadrature_default() {
+        let c = case(serde_json::json!({ "mesh": [40, 10], "dt": 0.04, "t_end": 1.0 }));
+        assert_eq!(cut_options(&c), CutOptions::default());
+        let s = Settings::of(&c);
+        assert_eq!(
+            (s.cut.interface, s.cut.quadtree_level),
+            ("parabolic", crate::xfem::DEFAULT_LEVEL)
+        );
+        let thesis = case(serde_json::json!({
+            "mesh": [40, 10], "dt": 0.04, "t_end": 1.0,
+            "quadtree_level": 5, "interface": "linear"
+        }));
+        assert_eq!(
+            cut_options(&thesis),
+            CutOptions {
+                level: 5,
+                interface: InterfaceApprox::Linear
+            }
+        );
+    }
+
+    /// The stress coupling resolved from `auto`: explicit (LBLᵀ) with a solvent, semi-implicit
+    /// (LU) without; no stress and no history for a Newtonian fluid.
+    #[test]
+    fn the_coupling_and_solver_follow_the_fluid() {
+        let c = case(serde_json::json!({ "mesh": [40, 10], "dt": 0.04, "t_end": 1.0 }));
+        let s = Settings::of(&c);
+        assert_eq!(
+            (s.flow.stress_coupling, s.flow.solver),
+            ("explicit (lagged G)", "LBLT")
+        );
+        assert_eq!(s.history_remap, "bicubic");
+        let mut ucm = c.clone();
+        ucm.fluid.beta = 0.0;
+        let s = Settings::of(&ucm);
+        assert_eq!(
+            (s.flow.stress_coupling, s.flow.solver),
+            ("semi_implicit", "LU")
+        );
+        let mut newtonian = c;
+        newtonian.fluid.model = crate::config::Model::Newtonian;
+        newtonian.fluid.wi = 0.0;
+        let s = Settings::of(&newtonian);
+        assert_eq!(s.flow.stress_coupling, "none (Stokes flow)");
+        assert_eq!(s.history_remap, "none (no history)");
+        assert_eq!((s.fluid.eta_s, s.fluid.eta_p), (1.0, 0.0));
+        assert!(s.to_toml().contains("[cut]"));
+    }
+}

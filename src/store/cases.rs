@@ -4,9 +4,9 @@
 use rusqlite::{params, OptionalExtension, TransactionBehavior};
 
 use super::{code_version, hostname, machine, Result, Store};
+use crate::config::PlannedCase;
 use crate::config::SweepSpec;
 use crate::observe::{Outcome, Sample};
-use crate::sweep::PlannedCase;
 
 /// A case claimed by this process.
 #[derive(Debug, Clone, Copy, PartialEq, Eq)]

@@ -4,22 +4,7 @@
 
 use serde_json::Value;
 
-use crate::config::{CaseSpec, ConfigError, SpecError, SweepSpec};
-
-/// One case of a sweep, ready to run.
-#[derive(Debug, Clone)]
-pub struct PlannedCase {
-    /// 0-based position in the expansion order.
-    pub index: usize,
-    /// Axis values, e.g. `wi=2 n=3` (last path segment, or the full path where that is ambiguous).
-    pub label: String,
-    /// Stable case id: 16 hex digits.
-    pub id: String,
-    /// The validated case.
-    pub spec: CaseSpec,
-    /// The swept fields and their values for this case.
-    pub params: Vec<(String, Value)>,
-}
+use crate::config::{CaseSpec, ConfigError, PlannedCase, SpecError, SweepSpec};
 
 /// FNV-1a 64-bit hash of `bytes`.
 pub fn fnv1a64(bytes: &[u8]) -> u64 {

@@ -11,6 +11,7 @@ pub mod progress;
 pub mod runner;
 pub mod solver_runner;
 
+pub use crate::config::PlannedCase;
 pub use engine::{run_sweep, SweepOptions, SweepSummary};
-pub use expand::{case_id, expand, PlannedCase};
+pub use expand::{case_id, expand};
 pub use runner::{default_runner, CaseResult, CaseRunner, FakeBehaviour, FakeRunner, RunStatus};

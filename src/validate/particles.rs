@@ -72,7 +72,7 @@ pub fn two_particle_case(ly: f64, mesh: [usize; 2], dt: f64) -> CaseSpec {
         "geometry": { "confined_shear": { "h": 1.0, "l": 4.0, "wall_speed": 1.0 } },
         "fluid": { "model": "newtonian", "wi": 0.0 },
         "particles": { "radius": 0.1, "layout": { "pair": { "lx": 0.5, "ly": ly } } },
-        "numerics": { "mesh": mesh, "dt": dt, "t_end": 60.0, "quadtree_level": 5 },
+        "numerics": { "mesh": mesh, "dt": dt, "t_end": 60.0 },
         "output": { "sample_every": 1, "snapshot_every": 0 },
         "stop": { "early_stop": true }
     });

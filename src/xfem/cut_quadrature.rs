@@ -23,8 +23,11 @@ use super::XfemError;
 use crate::fem::quadrature::gauss_quad;
 use crate::fem::quadrature::triangle::TriangleRule;
 
-/// Quadtree levels used by default (thesis §5.3.2: "we use five level subdivisions").
-pub const DEFAULT_LEVEL: u32 = 5;
+/// Quadtree levels used by default. The thesis used five (§5.3.2) with straight chords; with
+/// parabolic chords three give the same drag K (to 7 digits) and §2.4 errors (to 4 digits) as
+/// five, at the cost of straight chords at three, which are 4e-5 off in K
+/// (docs/validation.md, "The cut rule").
+pub const DEFAULT_LEVEL: u32 = 3;
 /// Largest level a user may request (sub-squares of 2⁻¹⁶ of the element are far below any
 /// resolution the flow solver can use).
 pub const MAX_LEVEL: u32 = 16;
@@ -60,9 +63,11 @@ pub struct CutOptions {
 }
 
 impl Default for CutOptions {
-    /// Level 5 (thesis §5.3.2) with parabolic chords: at the same cost as straight chords the
-    /// unit-disc area of Table 2.2 comes out to ~3e-11 instead of ~3e-5 on a 120×16 channel mesh.
-    /// Use [`InterfaceApprox::Linear`] to reproduce the thesis' integration exactly.
+    /// [`DEFAULT_LEVEL`] with parabolic chords: at the same cost as straight chords the
+    /// unit-disc area of Table 2.2 comes out to ~3e-11 instead of ~3e-5 on a 120×16 channel mesh
+    /// (at level 5). Use [`InterfaceApprox::Linear`] at level 5 to reproduce the thesis'
+    /// integration. The cases' default (`numerics.quadtree_level`, `numerics.interface`) is
+    /// this one.
     fn default() -> Self {
         Self {
             level: DEFAULT_LEVEL,

@@ -1,0 +1,138 @@
+//! Parameters of a viscoelastic run and the errors of its time stepper.
+
+use crate::fem::linsolve::SolveError;
+use crate::rheology::{Fluid, RheologyError};
+use crate::solver::constitutive::ConstitutiveError;
+use crate::solver::constitutive_stress::Coupling;
+use crate::solver::rigid::WeakForm;
+
+/// Steady-state tolerance of thesis §2.5.1: nodal changes of u and s below 1e-6 per step.
+pub const STEADY_TOL: f64 = 1e-6;
+
+/// Parameters of a viscoelastic run (no dependency on the config module).
+#[derive(Debug, Clone, Copy, PartialEq)]
+pub struct ViscoelasticParams {
+    /// Solvent viscosity η_s (0 = UCM / Giesekus without solvent).
+    pub eta_s: f64,
+    /// Polymer viscosity η_p.
+    pub eta_p: f64,
+    /// Relaxation time λ.
+    pub lambda: f64,
+    /// Giesekus mobility α (0 = Oldroyd-B).
+    pub alpha: f64,
+    /// Time step Δt.
+    pub dt: f64,
+    /// End time.
+    pub t_end: f64,
+    /// Stress coupling in the flow solve.
+    pub coupling: Coupling,
+    /// DEVSS-G parameter θ (thesis: θ = η_p).
+    pub theta: f64,
+    /// DEVSS-G with G as flow unknowns (true) or decoupled: Gⁿ lagged in the momentum balance,
+    /// G^{n+1} by a Q1 projection (false, the fast path).
+    pub coupled_g: bool,
+    /// Steady-state tolerance on the nodal change per step.
+    pub steady_tol: f64,
+    /// Form of the weak rigid-body condition; [`WeakForm::Thesis`] (non-symmetric, coercive for
+    /// any κ however small the cut) needs an LU flow solver, chosen automatically.
+    pub rigid_form: WeakForm,
+}
+
+impl ViscoelasticParams {
+    /// A Newtonian fluid of viscosity η (no polymer: the stress transport, its projections and
+    /// the history map are skipped, and the flow solve is plain Stokes with the LBLᵀ solver;
+    /// λ is a placeholder that nothing uses).
+    pub fn newtonian(eta: f64, dt: f64, t_end: f64) -> Self {
+        Self::new(eta, 0.0, 1.0, 0.0, dt, t_end)
+    }
+
+    /// Whether the fluid has a polymer (η_p > 0); without one the stepper solves Stokes flow.
+    pub fn has_polymer(&self) -> bool {
+        self.eta_p > 0.0
+    }
+
+    /// Explicit coupling, decoupled DEVSS-G with θ = η_p, steady tolerance [`STEADY_TOL`].
+    pub fn new(eta_s: f64, eta_p: f64, lambda: f64, alpha: f64, dt: f64, t_end: f64) -> Self {
+        Self {
+            eta_s,
+            eta_p,
+            lambda,
+            alpha,
+            dt,
+            t_end,
+            coupling: Coupling::Explicit,
+            theta: eta_p,
+            coupled_g: false,
+            steady_tol: STEADY_TOL,
+            rigid_form: WeakForm::Symmetric,
+        }
+    }
+
+    /// The validated fluid.
+    ///
+    /// # Errors
+    /// As in [`ViscoelasticFlow::new`].
+    pub fn fluid(&self) -> Result<Fluid, ViscoelasticError> {
+        let fluid = Fluid::new(self.eta_s, self.eta_p, self.lambda, self.alpha)?;
+        if !(self.dt > 0.0 && self.dt.is_finite() && self.t_end >= 0.0 && self.t_end.is_finite()) {
+            return Err(ViscoelasticError::Time {
+                dt: self.dt,
+                t_end: self.t_end,
+            });
+        }
+        if !(self.theta >= 0.0 && self.theta.is_finite()) {
+            return Err(ViscoelasticError::Theta(self.theta));
+        }
+        if self.coupling == Coupling::Explicit && self.eta_s + self.theta == 0.0 {
+            return Err(ViscoelasticError::NoViscosityInFlowMatrix);
+        }
+        Ok(fluid)
+    }
+}
+
+/// Errors of the viscoelastic time stepper; each says what to change.
+#[derive(Debug, thiserror::Error)]
+pub enum ViscoelasticError {
+    /// Invalid fluid parameters.
+    #[error("fluid parameters: {0}")]
+    Fluid(#[from] RheologyError),
+    /// Bad time parameters.
+    #[error("time step Δt = {dt} must be positive and the end time {t_end} non-negative (finite)")]
+    Time {
+        /// Δt.
+        dt: f64,
+        /// End time.
+        t_end: f64,
+    },
+    /// Bad DEVSS-G parameter.
+    #[error("DEVSS-G parameter θ = {0} must be non-negative and finite")]
+    Theta(f64),
+    /// η_s = θ = 0 with the explicit coupling: the flow matrix has no viscous part.
+    #[error(
+        "η_s = 0 with explicit stress coupling and θ = 0 leaves the flow matrix singular: \
+         use DEVSS-G (θ = η_p) or the semi-implicit coupling"
+    )]
+    NoViscosityInFlowMatrix,
+    /// Flow-rate control superposes a unit-force response, valid only when the flow matrix does
+    /// not depend on the stress.
+    #[error("flow-rate control needs the explicit stress coupling (the semi-implicit flow matrix changes every step)")]
+    FlowRateNeedsExplicit,
+    /// The flow solve failed.
+    #[error("flow solve failed at step {step}: {source}")]
+    Flow {
+        /// Time step number (0 = initial solve).
+        step: usize,
+        /// The solver error.
+        #[source]
+        source: SolveError,
+    },
+    /// Flow-rate control with moving particles.
+    #[error("flow-rate control needs fixed bodies (its unit-force response belongs to one configuration)")]
+    FlowRateNeedsFixedBodies,
+    /// A saved state does not fit this flow.
+    #[error("saved state does not fit: {0}")]
+    Restore(String),
+    /// The stress solve or a projection failed.
+    #[error(transparent)]
+    Stress(#[from] ConstitutiveError),
+}
