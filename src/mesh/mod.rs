@@ -2,6 +2,7 @@
 
 pub mod axis;
 pub mod follow;
+mod ordering;
 pub mod structured;
 
 pub use axis::Axis;
