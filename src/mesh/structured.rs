@@ -8,6 +8,7 @@
 
 use super::axis::Axis;
 use crate::fem::element::q2_map;
+use crate::fem::newton_inverse::{newton_inverse, Bound, Newton};
 
 /// Which kind of domain the mesh covers.
 #[derive(Debug, Clone, Copy, PartialEq)]
@@ -348,25 +349,20 @@ impl Mesh {
 }
 
 /// Reference coordinates ξ with X(ξ) = x for the Q2 map of the element nodes `xe`, by Newton's
-/// method from `guess` (ξ may leave [−1, 1]²: the caller decides what that means).
+/// method ([`newton_inverse`]) from `guess` (ξ may leave [−1, 1]²: the caller decides what that
+/// means). Without convergence, or at a singular Jacobian, the last iterate.
 pub(crate) fn invert_q2_map(xe: &[[f64; 2]; 9], x: [f64; 2], guess: [f64; 2]) -> [f64; 2] {
     // Newton converges quadratically from the polar guess; the step tolerance is round-off of ξ.
-    const STEP_TOL: f64 = 1e-15;
-    const MAX_ITER: usize = 20;
-    let mut xi = guess;
-    for _ in 0..MAX_ITER {
-        let (p, j, det) = q2_map(xe, xi);
-        let res = [x[0] - p[0], x[1] - p[1]];
-        let d = [
-            (j[1][1] * res[0] - j[0][1] * res[1]) / det,
-            (-j[1][0] * res[0] + j[0][0] * res[1]) / det,
-        ];
-        xi = [xi[0] + d[0], xi[1] + d[1]];
-        if d[0].abs().max(d[1].abs()) < STEP_TOL {
-            break;
-        }
-    }
-    xi
+    const NEWTON: Newton = Newton {
+        max_iter: 20,
+        step_tol: 1e-15,
+        bound: Bound::Free,
+    };
+    let residual = |xi| {
+        let (p, j, _) = q2_map(xe, xi);
+        ([x[0] - p[0], x[1] - p[1]], j)
+    };
+    newton_inverse(residual, guess, &NEWTON).unwrap_or_else(|failure| failure.xi())
 }
 
 #[cfg(test)]

@@ -16,6 +16,7 @@
 
 use crate::fem::element::{q1, q2_map, Q1_IN_Q2};
 use crate::fem::linsolve::{DirectSolver, SolveError, SolverKind};
+use crate::fem::newton_inverse::{newton_inverse, Bound, Newton};
 use crate::fem::sparse::{q1_pattern, SparseMatrix};
 use crate::mesh::{bounding_box, Axis, Mesh, Shape, Side};
 
@@ -757,7 +758,8 @@ fn clamp(xi: [f64; 2]) -> [f64; 2] {
     xi.map(|v| v.clamp(-1.0, 1.0))
 }
 
-/// Solves X_E(ξ) + Σ N_v(ξ) d_v = x for ξ by Newton from `start`.
+/// Solves X_E(ξ) + Σ N_v(ξ) d_v = x for ξ by Newton ([`newton_inverse`]) from `start`; `None`
+/// without convergence, at a singular Jacobian or once an iterate leaves [−10, 10]².
 fn newton(
     xe: &[[f64; 2]; 9],
     verts: &[usize; 4],
@@ -765,9 +767,13 @@ fn newton(
     x: [f64; 2],
     start: [f64; 2],
 ) -> Option<[f64; 2]> {
+    const NEWTON: Newton = Newton {
+        max_iter: NEWTON_MAX_ITER,
+        step_tol: NEWTON_TOL,
+        bound: Bound::Abandon(10.0),
+    };
     let dv = verts.map(|v| d[v]);
-    let mut xi = start;
-    for _ in 0..NEWTON_MAX_ITER {
+    let residual = |xi| {
         let (p, mut jac, _) = q2_map(xe, xi);
         let (n, dn) = q1(xi);
         let mut r = [x[0] - p[0], x[1] - p[1]];
@@ -779,23 +785,9 @@ fn newton(
                 }
             }
         }
-        let det = jac[0][0] * jac[1][1] - jac[0][1] * jac[1][0];
-        if det.abs() < f64::MIN_POSITIVE || !det.is_finite() {
-            return None;
-        }
-        let step = [
-            (jac[1][1] * r[0] - jac[0][1] * r[1]) / det,
-            (-jac[1][0] * r[0] + jac[0][0] * r[1]) / det,
-        ];
-        xi = [xi[0] + step[0], xi[1] + step[1]];
-        if xi.iter().any(|v| !v.is_finite() || v.abs() > 10.0) {
-            return None;
-        }
-        if step[0].abs().max(step[1].abs()) < NEWTON_TOL {
-            return Some(xi);
-        }
-    }
-    None
+        (r, jac)
+    };
+    newton_inverse(residual, start, &NEWTON).ok()
 }
 
 #[cfg(test)]
