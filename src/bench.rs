@@ -4,7 +4,7 @@ use std::time::Instant;
 
 use crate::fem::linsolve::{SolveError, SolverKind};
 use crate::mesh::{Axis, Mesh, Side};
-use crate::solver::stokes::{Stokes, StokesParams, Timings};
+use crate::solver::flow::{Stokes, StokesParams, Timings};
 
 /// Result of the Stokes benchmark.
 #[derive(Debug, Clone)]

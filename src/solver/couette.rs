@@ -14,9 +14,9 @@ use crate::fem::linsolve::SolverKind;
 use crate::mesh::{Axis, Mesh, Side};
 use crate::particles::{correct, find_annulus_contact, predict, RigidState, CONTACT_OVERLAP};
 use crate::solver::cutcells::compute_cuts;
+use crate::solver::flow::{Stokes, StokesParams};
 use crate::solver::motion::{FlowFields, MotionEnd, MotionError, RigidSolve};
 use crate::solver::rigid::{Motion, Particle};
-use crate::solver::stokes::{Stokes, StokesParams};
 use crate::xfem::CutOptions;
 
 /// Invalid Couette geometry.

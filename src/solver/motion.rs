@@ -9,8 +9,8 @@ use crate::mesh::{Mesh, Side};
 use crate::particles::{correct, find_contact, predict, Contact, RigidState, CONTACT_OVERLAP};
 use crate::rheology::Sym2;
 use crate::solver::cutcells::{compute_cuts, CutError};
+use crate::solver::flow::{Stokes, StokesParams};
 use crate::solver::rigid::{Motion, Particle};
-use crate::solver::stokes::{Stokes, StokesParams};
 use crate::xfem::CutOptions;
 
 /// A confined-shear set-up for quasi-static Stokes motion.

@@ -27,8 +27,8 @@ use crate::solver::constitutive_projection::{
     fluid_mean, sym_at, velocity_gradient_at, Q1Projection,
 };
 use crate::solver::constitutive_stress::{Coupling, CouplingStress};
+use crate::solver::flow::{Stokes, StokesParams};
 use crate::solver::rigid::{ElementCut, Particle, WeakForm};
-use crate::solver::stokes::{Stokes, StokesParams};
 
 /// Steady-state tolerance of thesis §2.5.1: nodal changes of u and s below 1e-6 per step.
 pub const STEADY_TOL: f64 = 1e-6;

@@ -4,8 +4,8 @@
 use super::{ConvRow, ConvStudy};
 use crate::fem::linsolve::{SolveError, SolverKind};
 use crate::mesh::{Axis, Mesh, Side};
+use crate::solver::flow::{Stokes, StokesParams};
 use crate::solver::norms::{flow_errors, ExactFlow};
-use crate::solver::stokes::{Stokes, StokesParams};
 
 /// Minimum fitted rates for Taylor–Hood Q2/Q1 (expected 3, 2, 2; STYLE: within 0.15).
 pub const MIN_RATE_U_L2: f64 = 2.85;
