@@ -1,6 +1,7 @@
 //! Structured quadrilateral meshes with Q2 nodes (rectangle, annulus), graded spacing, periodicity.
 
 pub mod axis;
+pub mod equidistribute;
 pub mod follow;
 mod ordering;
 pub mod structured;
