@@ -4,7 +4,7 @@ use std::time::Instant;
 
 use crate::fem::linsolve::{SolveError, SolverKind};
 use crate::mesh::{Axis, Mesh, Side};
-use crate::solver::stokes::{Stokes, StokesParams, Timings};
+use crate::solver::flow::{Stokes, StokesParams, Timings};
 
 /// Result of the Stokes benchmark.
 #[derive(Debug, Clone)]
@@ -216,7 +216,7 @@ pub fn moving_case(
     }))
 }
 
-/// One viscoelastic time step of [`moving_case`], built by [`Simulation::new`] as every case
+/// One viscoelastic time step of [`moving_case`], built by [`crate::simulate::Simulation::new`] as every case
 /// is: `warm_up` untimed steps, then medians over `steps` steps.
 ///
 /// # Errors

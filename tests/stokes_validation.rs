@@ -47,7 +47,7 @@ fn circular_couette_converges() {
 #[test]
 fn an_unchanged_matrix_reuses_its_factorization() {
     use xpflow::mesh::{Axis, Mesh, Side};
-    use xpflow::solver::stokes::{Stokes, StokesParams};
+    use xpflow::solver::flow::{Stokes, StokesParams};
     let mesh = Mesh::rectangle(Axis::uniform(0.0, 2.0, 8), Axis::uniform(0.0, 1.0, 4), true);
     let mut st = Stokes::new(mesh, StokesParams::new(1.0, 0.0, SolverKind::Lblt));
     st.set_velocity(Side::Bottom, |_| [0.0, 0.0]);

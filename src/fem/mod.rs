@@ -3,5 +3,6 @@
 pub mod element;
 pub mod krylov;
 pub mod linsolve;
+pub mod newton_inverse;
 pub mod quadrature;
 pub mod sparse;

@@ -1,7 +1,9 @@
 //! Structured quadrilateral meshes with Q2 nodes (rectangle, annulus), graded spacing, periodicity.
 
 pub mod axis;
+pub mod equidistribute;
 pub mod follow;
+mod ordering;
 pub mod structured;
 
 pub use axis::Axis;

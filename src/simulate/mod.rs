@@ -1,7 +1,7 @@
 //! One path from a validated case to a running simulation: [`Simulation::new`] builds a
 //! [`CaseSpec`]'s set-up (`crate::geometry`), mesh or following mesh, fluid, particles, cut rule,
 //! history remap and frame — every numerical default resolved once in [`Settings`] — and
-//! [`Simulation::run`] steps it, reporting every step to a [`CaseObserver`]. The sweep runner,
+//! [`run::run_case`] steps it, reporting every step to a [`crate::observe::CaseObserver`]. The sweep runner,
 //! `xpflow run`, the particle validations and `xpflow bench moving` all build their cases here,
 //! so that what is validated is what users run.
 //!

@@ -12,8 +12,8 @@ use crate::solver::ale::Remap;
 use crate::solver::constitutive::GHOST_PENALTY;
 use crate::solver::constitutive_projection::PROJECTION_GHOST_PENALTY;
 use crate::solver::constitutive_stress::Coupling;
+use crate::solver::flow::FLOW_GHOST_PENALTY;
 use crate::solver::moving::STEADY_ROTATION_TOL;
-use crate::solver::stokes::FLOW_GHOST_PENALTY;
 use crate::solver::viscoelastic::ViscoelasticParams;
 use crate::xfem::{CutOptions, InterfaceApprox};
 

@@ -23,7 +23,7 @@ pub struct FlowFields {
 }
 
 /// The polymer-stress fields of a snapshot: tr τ and the components (xx, xy, yy).
-const STRESS_FIELDS: [&str; 4] = ["tr_tau", "tau_xx", "tau_xy", "tau_yy"];
+pub const STRESS_FIELDS: [&str; 4] = ["tr_tau", "tau_xx", "tau_xy", "tau_yy"];
 
 /// Field snapshot on the Q2 nodes (each element drawn as 4 sub-quadrilaterals; the periodic seam
 /// gets its own column of nodes so that no quad spans the domain): velocity, pressure and, for a

@@ -303,11 +303,10 @@ impl<D: Confinement + Clone + 'static> MovingParticles<D> {
         )
     }
 
-    /// One time step, the pipeline of thesis §5.3.4: [`predict`](Self::predict) →
-    /// [`ale_map`](Self::ale_map) → [`classify`](Self::classify) →
-    /// [`solve_flow`](Self::solve_flow) → [`solve_stress`](Self::solve_stress) →
-    /// [`correct`](Self::correct) → [`observe`](Self::observe). [`StepOutcome::Contact`] when the
-    /// predicted or the corrected particles touch (the former: the step is not taken).
+    /// One time step, the pipeline of thesis §5.3.4 (one private method each): `predict` →
+    /// `ale_map` → `classify` → `solve_flow` → `solve_stress` → `correct` → `observe`.
+    /// [`StepOutcome::Contact`] when the predicted particles touch (the step is not taken),
+    /// [`StepOutcome::ContactAfter`] when the corrected ones do.
     ///
     /// # Errors
     /// [`MovingError`] when the geometry, the ALE map or a solve fails, or velocities blow up.
@@ -347,12 +346,12 @@ impl<D: Confinement + Clone + 'static> MovingParticles<D> {
         })
     }
 
-    /// 1. predict: X̂ⁿ⁺¹ = 2Xⁿ − Xⁿ⁻¹ (Eqs. 5.45–5.47; Xⁿ before the first step).
+    /// Step 1, predict: X̂ⁿ⁺¹ = 2Xⁿ − Xⁿ⁻¹ (Eqs. 5.45–5.47; Xⁿ before the first step).
     fn predict(&self) -> Vec<[f64; 2]> {
         predict(self.prev.as_ref(), &self.cur)
     }
 
-    /// 2. ale_map: the computational mesh of the coming step (refined around X̂ⁿ⁺¹ if it
+    /// Step 2, ale_map: the computational mesh of the coming step (refined around X̂ⁿ⁺¹ if it
     /// follows the particles; `None`: the mesh stays) and the temporary ALE map that carries the
     /// history from X̂ⁿ onto it (thesis §5.3.3; `None` for a fluid without polymer, which has
     /// no history).
@@ -401,7 +400,7 @@ impl<D: Confinement + Clone + 'static> MovingParticles<D> {
         Ok((onto, Some(map)))
     }
 
-    /// 3. classify: the particles at X̂ⁿ⁺¹ and their cut cells on `mesh`.
+    /// Step 3, classify: the particles at X̂ⁿ⁺¹ and their cut cells on `mesh`.
     fn classify(
         &self,
         mesh: &Mesh,
@@ -417,17 +416,17 @@ impl<D: Confinement + Clone + 'static> MovingParticles<D> {
         Ok((particles, cuts))
     }
 
-    /// 4. solve_flow: u, p, Uᵢ, ωᵢ at X̂ⁿ⁺¹ (Eq. 5.48).
+    /// Step 4, solve_flow: u, p, Uᵢ, ωᵢ at X̂ⁿ⁺¹ (Eq. 5.48).
     fn solve_flow(&mut self) -> Result<FlowSolution, MovingError> {
         Ok(self.flow.solve_flow(&|_| [0.0, 0.0])?)
     }
 
-    /// 5. solve_stress: s^{n+1} with u − u_m (Eq. 5.52; nothing without polymer).
+    /// Step 5, solve_stress: s^{n+1} with u − u_m (Eq. 5.52; nothing without polymer).
     fn solve_stress(&mut self, solution: FlowSolution) -> Result<StepReport, MovingError> {
         Ok(self.flow.solve_stress(solution)?)
     }
 
-    /// 6. correct: Xⁿ⁺¹ by the trapezoidal rule (Eqs. 5.54–5.56); returns
+    /// Step 6, correct: Xⁿ⁺¹ by the trapezoidal rule (Eqs. 5.54–5.56); returns
     /// max |ω*(tⁿ⁺¹) − ω*(tⁿ)| over the particles.
     fn correct(&mut self, x_pred: Vec<[f64; 2]>, step: usize) -> Result<f64, MovingError> {
         let rigid = self.flow.rigid_velocities();
@@ -452,7 +451,7 @@ impl<D: Confinement + Clone + 'static> MovingParticles<D> {
         Ok(d_omega_star)
     }
 
-    /// 7. observe: contact of the corrected particles with each other or a wall.
+    /// Step 7, observe: contact of the corrected particles with each other or a wall.
     fn observe(&self) -> Option<Contact> {
         self.domain
             .contact(&self.cur.x, &self.radius, self.min_gap())

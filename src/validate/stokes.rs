@@ -4,8 +4,8 @@
 use super::{ConvRow, ConvStudy};
 use crate::fem::linsolve::{SolveError, SolverKind};
 use crate::mesh::{Axis, Mesh, Side};
+use crate::solver::flow::{Stokes, StokesParams};
 use crate::solver::norms::{flow_errors, ExactFlow};
-use crate::solver::stokes::{Stokes, StokesParams};
 
 /// Plane Couette flow lies in Q2 (a linear profile): only round-off remains in its nodal error.
 pub const PLANE_COUETTE_ROUND_OFF: f64 = 1e-11;

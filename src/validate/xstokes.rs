@@ -7,9 +7,9 @@ use crate::fem::linsolve::SolverKind;
 use crate::fem::quadrature::gauss_quad;
 use crate::mesh::{Axis, Mesh, Side};
 use crate::solver::cutcells::{compute_cuts, CutError};
+use crate::solver::flow::{Stokes, StokesParams, StokesSolution};
 use crate::solver::norms::ExactFlow;
 use crate::solver::rigid::{ElementCut, Motion, Particle, WeakForm};
-use crate::solver::stokes::{Stokes, StokesParams, StokesSolution};
 use crate::xfem::cut_quadrature::CutOptions;
 
 /// Published drag of the confined cylinder in a Newtonian fluid (thesis Table 2.3).
@@ -301,7 +301,7 @@ pub struct DragResult {
     /// Seconds in the classification and cut-cell quadrature.
     pub cut_seconds: f64,
     /// Phase timings of the flow solve.
-    pub timings: crate::solver::stokes::Timings,
+    pub timings: crate::solver::flow::Timings,
 }
 
 /// Newtonian drag of a cylinder (R = 1) centred in a channel H = 4R, periodic with L = 30R,

@@ -8,6 +8,7 @@
 
 use super::XfemError;
 use crate::fem::element::q2_map;
+use crate::fem::newton_inverse::{self as newton, Bound, Newton, NewtonFailure};
 use crate::fem::quadrature::gauss_quad;
 
 /// Lebesgue constant of tensor-product quadratic interpolation at three equispaced points per
@@ -185,48 +186,51 @@ const INSIDE_TOL: f64 = 1e-10;
 /// the element, and extrapolated maps may fold beyond it.
 const XI_MAX: f64 = 4.0;
 
-/// Newton's method for x(ξ) = x from ξ = 0, without checking a converged ξ against the element
-/// (points on its boundary may come out a round-off outside). Returns ξ and the residual
-/// |x(ξ) − x|; a non-converged iteration that ended outside the element is `OutsideElement`.
+/// The Newton settings of the inverse map.
+const NEWTON: Newton = Newton {
+    max_iter: MAX_NEWTON,
+    step_tol: NEWTON_STEP_TOL,
+    bound: Bound::Clamp(XI_MAX),
+};
+
+/// Newton's method for x(ξ) = x from ξ = 0 ([`fem::newton_inverse`](newton)), without checking
+/// a converged ξ against the element (points on its boundary may come out a round-off outside).
+/// Returns ξ and the residual |x(ξ) − x|; a non-converged iteration that ended outside the
+/// element is `OutsideElement`.
 pub(crate) fn newton_inverse<M: RefMap + ?Sized>(
     m: &M,
     x: [f64; 2],
 ) -> Result<([f64; 2], f64), XfemError> {
-    let mut xi = [0.0, 0.0];
-    let mut residual = f64::INFINITY;
-    for _ in 0..MAX_NEWTON {
+    let residual = |xi| {
         let p = m.map(xi);
-        let r = [p[0] - x[0], p[1] - x[1]];
-        residual = r[0].hypot(r[1]);
-        let j = m.jacobian(xi);
-        let det = det2(&j);
-        let scale = j[0][0].abs() + j[0][1].abs() + j[1][0].abs() + j[1][1].abs();
-        if !(det.abs() > 1e-300 && det.abs() > 1e-14 * scale * scale) {
-            return Err(XfemError::SingularJacobian { xi, det });
-        }
-        let d = [
-            (j[1][1] * r[0] - j[0][1] * r[1]) / det,
-            (-j[1][0] * r[0] + j[0][0] * r[1]) / det,
-        ];
-        xi = [
-            (xi[0] - d[0]).clamp(-XI_MAX, XI_MAX),
-            (xi[1] - d[1]).clamp(-XI_MAX, XI_MAX),
-        ];
-        if d[0].abs().max(d[1].abs()) < NEWTON_STEP_TOL {
+        ([x[0] - p[0], x[1] - p[1]], m.jacobian(xi))
+    };
+    match newton::newton_inverse(residual, [0.0, 0.0], &NEWTON) {
+        Ok(xi) => {
             let p = m.map(xi);
-            return Ok((xi, (p[0] - x[0]).hypot(p[1] - x[1])));
+            Ok((xi, (p[0] - x[0]).hypot(p[1] - x[1])))
         }
+        Err(NewtonFailure::Singular { xi, det }) => Err(XfemError::SingularJacobian { xi, det }),
+        Err(NewtonFailure::NotConverged { xi, residual }) if !outside(xi) => {
+            Err(XfemError::InverseMapDiverged {
+                x,
+                residual,
+                iterations: MAX_NEWTON,
+            })
+        }
+        // Newton wandering outside the element means the point is not in it (the extrapolated
+        // map may have no preimage at all, as for the centre of an annulus); clamped iterates
+        // never escape.
+        Err(failure) => Err(XfemError::OutsideElement {
+            x,
+            xi: failure.xi(),
+        }),
     }
-    // Newton wandering outside the element means the point is not in it (the extrapolated map
-    // may have no preimage at all, as for the centre of an annulus).
-    if xi[0].abs() > 1.0 + INSIDE_TOL || xi[1].abs() > 1.0 + INSIDE_TOL {
-        return Err(XfemError::OutsideElement { x, xi });
-    }
-    Err(XfemError::InverseMapDiverged {
-        x,
-        residual,
-        iterations: MAX_NEWTON,
-    })
+}
+
+/// Whether ξ lies outside the element by more than [`INSIDE_TOL`].
+fn outside(xi: [f64; 2]) -> bool {
+    xi[0].abs() > 1.0 + INSIDE_TOL || xi[1].abs() > 1.0 + INSIDE_TOL
 }
 
 /// The reference coordinates ξ ∈ [-1, 1]² of the physical point `x` in the element `m`
@@ -237,7 +241,7 @@ pub(crate) fn newton_inverse<M: RefMap + ?Sized>(
 /// map cannot be inverted there.
 pub fn inverse_map<M: RefMap + ?Sized>(m: &M, x: [f64; 2]) -> Result<[f64; 2], XfemError> {
     let (xi, _) = newton_inverse(m, x)?;
-    if xi[0].abs() > 1.0 + INSIDE_TOL || xi[1].abs() > 1.0 + INSIDE_TOL {
+    if outside(xi) {
         return Err(XfemError::OutsideElement { x, xi });
     }
     Ok(xi)

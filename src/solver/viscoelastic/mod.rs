@@ -40,9 +40,9 @@ use crate::solver::constitutive::{
 };
 use crate::solver::constitutive_projection::Q1Projection;
 use crate::solver::constitutive_stress::{Coupling, CouplingStress};
+use crate::solver::flow::{Stokes, StokesParams};
 use crate::solver::polymer_terms::PolymerStress;
 use crate::solver::rigid::{ElementCut, Particle, WeakForm};
-use crate::solver::stokes::{Stokes, StokesParams};
 
 /// Wall-clock seconds of the phases of one step.
 #[derive(Debug, Clone, Copy, Default)]
@@ -299,7 +299,7 @@ impl ViscoelasticFlow {
         self.solve_stress(solution)
     }
 
-    /// 1. solve_flow: u^{n+1}, p^{n+1} (and the rigid velocities, G^{n+1} when coupled) with
+    /// Step 1, solve_flow: u^{n+1}, p^{n+1} (and the rigid velocities, G^{n+1} when coupled) with
     /// the polymer stress of cⁿ (none without polymer); calls [`start`](Self::start) first if
     /// needed. The step ends with [`solve_stress`](Self::solve_stress).
     ///
@@ -346,7 +346,7 @@ impl ViscoelasticFlow {
         })
     }
 
-    /// 2.–5. solve_stress: G^{n+1} (decoupled DEVSS-G), s^{n+1} by SUPG/BDF2, c^{n+1} = Π exp(s),
+    /// Steps 2–5, solve_stress: G^{n+1} (decoupled DEVSS-G), s^{n+1} by SUPG/BDF2, c^{n+1} = Π exp(s),
     /// the steady test, and the fields advanced to the flow `solution` of this step. Without
     /// polymer only the step count and the fields advance.
     ///
@@ -418,7 +418,7 @@ impl ViscoelasticFlow {
         ))
     }
 
-    /// 5. The steady test of the step just solved (u^{n+1} = `u`), and the fields and time
+    /// Step 5: the steady test of the step just solved (u^{n+1} = `u`), and the fields and time
     /// advanced to it.
     fn finish_step(
         &mut self,

@@ -71,7 +71,7 @@ impl ViscoelasticParams {
     /// The validated fluid.
     ///
     /// # Errors
-    /// As in [`ViscoelasticFlow::new`].
+    /// As in [`super::ViscoelasticFlow::new`].
     pub fn fluid(&self) -> Result<Fluid, ViscoelasticError> {
         let fluid = Fluid::new(self.eta_s, self.eta_p, self.lambda, self.alpha)?;
         if !(self.dt > 0.0 && self.dt.is_finite() && self.t_end >= 0.0 && self.t_end.is_finite()) {

@@ -1,0 +1,139 @@
+//! The mesh displacement of the temporary ALE map (thesis Eqs. 5.35–5.38): −∇²d_m = 0 on the
+//! whole mesh, d_m = 0 on the walls, periodic with the mesh, d_m = X̂ⁿ⁺¹ − X̂ⁿ on a rigid patch of
+//! each particle; one Q1 Laplace matrix for both components.
+
+use super::locate::nearest_image;
+use super::{AleError, RigidMove, TemporaryAle};
+use crate::fem::element::{q1, Q1_IN_Q2};
+use crate::fem::linsolve::{DirectSolver, SolverKind};
+use crate::mesh::{bounding_box, Mesh};
+
+/// Relative residual accepted from the Laplace solve.
+const LAPLACE_RESIDUAL_TOL: f64 = 1e-10;
+
+impl TemporaryAle {
+    /// The mesh displacement d_m for the given moves (Eqs. 5.35–5.38).
+    ///
+    /// # Errors
+    /// [`AleError::Solve`] if the Laplace solve fails.
+    pub fn displacement(
+        &mut self,
+        mesh: &Mesh,
+        moves: &[RigidMove],
+        period: Option<f64>,
+    ) -> Result<Vec<[f64; 2]>, AleError> {
+        let nv = mesh.n_vertices();
+        if moves.iter().all(|m| m.displacement == [0.0, 0.0]) {
+            return Ok(vec![[0.0; 2]; nv]);
+        }
+        if (&mesh.ax, &mesh.ay) != (&self.k_axes.0, &self.k_axes.1) {
+            // a mesh with moved columns or rows: same pattern, new element matrices
+            self.element_k = laplace_elements(mesh);
+            self.k_axes = (mesh.ax.clone(), mesh.ay.clone());
+        }
+        // rigid patches: the nearest particle claims a vertex; walls win
+        let mut claim: Vec<Option<(f64, [f64; 2])>> = vec![None; nv];
+        for (e, xe) in mesh.element_coords.iter().enumerate() {
+            let (lo, hi) = bounding_box(xe);
+            for m in moves {
+                let c = nearest_image(m.center, [0.5 * (lo[0] + hi[0]), 0.0], period);
+                let q = [c[0].clamp(lo[0], hi[0]), c[1].clamp(lo[1], hi[1])];
+                if (q[0] - c[0]).hypot(q[1] - c[1]) >= m.radius {
+                    continue;
+                }
+                for (k, &v) in Q1_IN_Q2.iter().zip(&mesh.element_vertices[e]) {
+                    let d = (xe[*k][0] - c[0]).hypot(xe[*k][1] - c[1]);
+                    if claim[v].is_none_or(|(dc, _)| d < dc) {
+                        claim[v] = Some((d, m.displacement));
+                    }
+                }
+            }
+        }
+        let fixed: Vec<Option<[f64; 2]>> = (0..nv)
+            .map(|v| {
+                if self.wall[v] {
+                    Some([0.0; 2])
+                } else {
+                    claim[v].map(|c| c.1)
+                }
+            })
+            .collect();
+        let fx: Vec<Option<f64>> = fixed.iter().map(|f| f.map(|d| d[0])).collect();
+        self.matrix.zero();
+        let mut rhs = [vec![0.0; nv], vec![0.0; nv]];
+        let zero = [0.0; 4];
+        for (verts, k) in mesh.element_vertices.iter().zip(&self.element_k) {
+            self.matrix.scatter(verts, k, &zero, &mut rhs[0], &fx);
+            // the same symmetric elimination for the y component
+            for (b, &j) in verts.iter().enumerate() {
+                let Some(g) = fixed[j] else { continue };
+                for (a, &i) in verts.iter().enumerate() {
+                    if fixed[i].is_none() {
+                        rhs[1][i] -= k[4 * a + b] * g[1];
+                    }
+                }
+            }
+        }
+        self.matrix.apply_constraints(&mut rhs[0], &fx);
+        for (v, f) in fixed.iter().enumerate() {
+            if let Some(g) = f {
+                rhs[1][v] = g[1];
+            }
+        }
+        if self.solver.is_none() {
+            self.solver = Some(DirectSolver::analyze(&self.matrix, SolverKind::Lblt)?);
+        }
+        let solver = self.solver.as_mut().expect("analysed above");
+        solver.factor(&self.matrix)?;
+        let mut d = vec![[0.0; 2]; nv];
+        let mut sol = vec![0.0; nv];
+        for (c, r) in rhs.iter().enumerate() {
+            solver.solve_checked(&self.matrix, r, &mut sol, LAPLACE_RESIDUAL_TOL)?;
+            d.iter_mut().zip(&sol).for_each(|(d, s)| d[c] = *s);
+        }
+        if let Some(vertex) = d
+            .iter()
+            .position(|v| !(v[0].is_finite() && v[1].is_finite()))
+        {
+            return Err(AleError::NonFinite { vertex });
+        }
+        Ok(d)
+    }
+}
+
+/// Element matrices of the mesh Laplacian for the Q1 vertices (2×2 Gauss on the bilinear map
+/// of the element corners: a smoothing operator, exactness is not needed).
+pub(super) fn laplace_elements(mesh: &Mesh) -> Vec<[f64; 16]> {
+    let g = 1.0 / 3f64.sqrt();
+    mesh.element_coords
+        .iter()
+        .map(|xe| {
+            let c = Q1_IN_Q2.map(|k| xe[k]);
+            let mut k = [0.0; 16];
+            for xi in [[-g, -g], [g, -g], [-g, g], [g, g]] {
+                let (_, dref) = q1(xi);
+                let mut jac = [[0.0; 2]; 2];
+                for a in 0..4 {
+                    for i in 0..2 {
+                        for d in 0..2 {
+                            jac[i][d] += dref[a][d] * c[a][i];
+                        }
+                    }
+                }
+                let det = jac[0][0] * jac[1][1] - jac[0][1] * jac[1][0];
+                let grad = dref.map(|r| {
+                    [
+                        (jac[1][1] * r[0] - jac[1][0] * r[1]) / det,
+                        (-jac[0][1] * r[0] + jac[0][0] * r[1]) / det,
+                    ]
+                });
+                for a in 0..4 {
+                    for b in 0..4 {
+                        k[4 * a + b] += det * (grad[a][0] * grad[b][0] + grad[a][1] * grad[b][1]);
+                    }
+                }
+            }
+            k
+        })
+        .collect()
+}

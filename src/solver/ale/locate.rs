@@ -1,0 +1,166 @@
+//! Point location in the ALE mesh x_m + d_m (thesis Eq. 5.39): the element E and reference
+//! point ξ with X_E(ξ) + d(E, ξ) = x, and the pre-image X_E(ξ) on the undisplaced mesh
+//! (Eqs. 5.42, 5.43).
+
+use super::AleError;
+use crate::fem::element::{q1, q2_map};
+use crate::fem::newton_inverse::{newton_inverse, Bound, Newton};
+use crate::mesh::{Mesh, Shape};
+
+/// Newton tolerance of the point location, in reference coordinates. Round-off limits ξ to about
+/// ε|x|/h (7e-14 for |x| = 2, h = 0.013): a tolerance of 1e-13 failed there (300×75 channel,
+/// L = 4); 1e-11 still places the point to 1e-11 h.
+const NEWTON_TOL: f64 = 1e-11;
+/// Newton iterations before a candidate element is given up.
+const NEWTON_MAX_ITER: usize = 30;
+/// How far outside [−1, 1]² a converged ξ may lie and still count as inside (points on an edge
+/// shared by two elements, round-off).
+const INSIDE_TOL: f64 = 1e-9;
+/// How far outside [−1, 1]² the nearest candidate of a point on a circle of the annulus may lie:
+/// the discrete boundary (parabolas through the nodes) is up to R Δθ⁴/520 inside the circle
+/// between its nodes, ≈ 6e-6 in ξ for R = 4, Δθ = 2π/64, h_r = 0.25 (a mesh that follows a
+/// particle puts the new wall nodes there). Points missed in the interior are off by O(1).
+const CURVED_BOUNDARY_TOL: f64 = 1e-4;
+
+/// The periodic image of `x` (shifted by multiples of `period` in x) nearest to `near` in x.
+pub(super) fn nearest_image(x: [f64; 2], near: [f64; 2], period: Option<f64>) -> [f64; 2] {
+    match period {
+        Some(l) => [x[0] - l * ((x[0] - near[0]) / l).round(), x[1]],
+        None => x,
+    }
+}
+
+/// Locates `x` in the mesh displaced by `d` and returns (element, ξ, X_E(ξ)) with the pre-image
+/// X_E(ξ) as the periodic image nearest to `x`.
+pub(super) fn pre_image(
+    mesh: &Mesh,
+    d: &[[f64; 2]],
+    x: [f64; 2],
+    period: Option<f64>,
+) -> Result<(usize, [f64; 2], [f64; 2]), AleError> {
+    let not_found = || AleError::NotFound { x: x[0], y: x[1] };
+    // pre-images of wall points may leave the domain by round-off: start from the wall
+    let locate = |x: [f64; 2]| {
+        mesh.locate(x).or_else(|| match mesh.shape {
+            Shape::Rectangle => {
+                let (y0, y1) = (mesh.ay.vertices[0], mesh.ay.vertices[mesh.ay.len()]);
+                let (x0, x1) = (mesh.ax.vertices[0], mesh.ax.vertices[mesh.ax.len()]);
+                let xx = if mesh.periodic {
+                    x[0]
+                } else {
+                    x[0].clamp(x0, x1)
+                };
+                mesh.locate([xx, x[1].clamp(y0, y1)])
+            }
+            // a point of the discrete inner or outer boundary of another mesh (whose nodes on
+            // the circle lie elsewhere) can be O(h⁴) outside the circles: onto the circle
+            Shape::Annulus => {
+                let (r1, r2) = (mesh.ay.vertices[0], mesh.ay.vertices[mesh.ay.len()]);
+                let r = x[0].hypot(x[1]);
+                let s = r.clamp(r1, r2) / r;
+                mesh.locate([x[0] * s, x[1] * s])
+            }
+        })
+    };
+    let (e0, xi0) = locate(x).ok_or_else(not_found)?;
+    // The pre-image X solves X + d(X) = x. Where d varies slowly (everywhere but across a few
+    // elements next to a rigid patch) X ≈ x − d(x): search around that first, then around x.
+    // A displacement of more than an element per step (a particle at speed U with UΔt > h, and
+    // the first predicted step moves by 2UΔt) puts X beyond the neighbours of x's element.
+    let dx = {
+        let (n, _) = q1(xi0);
+        let dv = mesh.element_vertices[e0].map(|v| d[v]);
+        (0..4).fold([0.0; 2], |a, m| {
+            [a[0] + n[m] * dv[m][0], a[1] + n[m] * dv[m][1]]
+        })
+    };
+    let guess = locate([x[0] - dx[0], x[1] - dx[1]]);
+    let (nx, ny) = mesh.dims();
+    let mut best: Option<(f64, usize, [f64; 2])> = None;
+    let mut tried = Vec::with_capacity(18);
+    for (ec, xic) in guess.into_iter().chain(std::iter::once((e0, xi0))) {
+        let (exc, eyc) = ((ec % nx) as isize, (ec / nx) as isize);
+        // the centre element first (from the located ξ), then its neighbours
+        for (dx, dy) in std::iter::once((0, 0)).chain(
+            [-1, 0, 1]
+                .into_iter()
+                .flat_map(|a| [-1, 0, 1].map(move |b| (a, b)))
+                .filter(|&p| p != (0, 0)),
+        ) {
+            let ey = eyc + dy;
+            if ey < 0 || ey >= ny as isize {
+                continue;
+            }
+            let mut ex = exc + dx;
+            if mesh.periodic {
+                ex = ex.rem_euclid(nx as isize);
+            } else if ex < 0 || ex >= nx as isize {
+                continue;
+            }
+            let e = ey as usize * nx + ex as usize;
+            if tried.contains(&e) {
+                continue;
+            }
+            tried.push(e);
+            let xe = &mesh.element_coords[e];
+            let xc = nearest_image(x, xe[4], period.filter(|_| mesh.shape == Shape::Rectangle));
+            let start = if (dx, dy) == (0, 0) { xic } else { [0.0, 0.0] };
+            let Some(xi) = newton(xe, &mesh.element_vertices[e], d, xc, start) else {
+                continue;
+            };
+            let out = (xi[0].abs() - 1.0).max(xi[1].abs() - 1.0);
+            if out <= INSIDE_TOL {
+                let p = q2_map(xe, xi).0;
+                return Ok((e, clamp(xi), nearest_image(p, x, period)));
+            }
+            if best.as_ref().is_none_or(|b| out < b.0) {
+                best = Some((out, e, xi));
+            }
+        }
+    }
+    // points of the exact boundary just outside the discrete (curved) one: nearest candidate
+    match best {
+        Some((out, e, xi)) if out < CURVED_BOUNDARY_TOL => {
+            let xi = clamp(xi);
+            let p = q2_map(&mesh.element_coords[e], xi).0;
+            Ok((e, xi, nearest_image(p, x, period)))
+        }
+        _ => Err(not_found()),
+    }
+}
+
+fn clamp(xi: [f64; 2]) -> [f64; 2] {
+    xi.map(|v| v.clamp(-1.0, 1.0))
+}
+
+/// Solves X_E(ξ) + Σ N_v(ξ) d_v = x for ξ by Newton ([`newton_inverse`]) from `start`; `None`
+/// without convergence, at a singular Jacobian or once an iterate leaves [−10, 10]².
+fn newton(
+    xe: &[[f64; 2]; 9],
+    verts: &[usize; 4],
+    d: &[[f64; 2]],
+    x: [f64; 2],
+    start: [f64; 2],
+) -> Option<[f64; 2]> {
+    const NEWTON: Newton = Newton {
+        max_iter: NEWTON_MAX_ITER,
+        step_tol: NEWTON_TOL,
+        bound: Bound::Abandon(10.0),
+    };
+    let dv = verts.map(|v| d[v]);
+    let residual = |xi| {
+        let (p, mut jac, _) = q2_map(xe, xi);
+        let (n, dn) = q1(xi);
+        let mut r = [x[0] - p[0], x[1] - p[1]];
+        for a in 0..4 {
+            for i in 0..2 {
+                r[i] -= n[a] * dv[a][i];
+                for k in 0..2 {
+                    jac[i][k] += dn[a][k] * dv[a][i];
+                }
+            }
+        }
+        (r, jac)
+    };
+    newton_inverse(residual, start, &NEWTON).ok()
+}

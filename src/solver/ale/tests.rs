@@ -1,0 +1,458 @@
+//! Unit tests of the temporary ALE map: displacement, pre-images, remaps, mesh velocity.
+
+use super::*;
+use crate::fem::element::q1;
+use crate::mesh::Axis;
+
+/// Newton converged to 1e-13 in ξ on O(1) elements: positions to ~1e-12.
+const LOCATE_TOL: f64 = 1e-11;
+/// Solve residual 1e-10 relative on O(0.01) displacements.
+const SOLVE_TOL: f64 = 1e-11;
+/// Observed order of one bicubic remap under mesh refinement: 4 asymptotically; 3.5 leaves
+/// room for the pre-asymptotic range on 40 elements and is far above index-space weights' 2.
+const MIN_CUBIC_ORDER: f64 = 3.5;
+
+fn channel() -> Mesh {
+    Mesh::rectangle(
+        Axis::uniform(-1.0, 1.0, 20),
+        Axis::uniform(-0.5, 0.5, 10),
+        true,
+    )
+}
+
+fn one_move(center: [f64; 2], disp: [f64; 2]) -> Vec<RigidMove> {
+    vec![RigidMove {
+        center,
+        radius: 0.15,
+        displacement: disp,
+    }]
+}
+
+#[test]
+fn no_motion_is_the_identity() {
+    let mesh = channel();
+    let mut ale = TemporaryAle::new(&mesh);
+    let m = ale
+        .advance(
+            &mesh,
+            &one_move([0.1, 0.0], [0.0, 0.0]),
+            Some(2.0),
+            0.1,
+            true,
+        )
+        .unwrap();
+    assert!(m
+        .mesh_velocity
+        .iter()
+        .all(|u| u[0].abs() + u[1].abs() < LOCATE_TOL));
+    let f: Vec<f64> = mesh
+        .node_of_vertex
+        .iter()
+        .map(|&k| mesh.nodes[k][0] * 3.0 + mesh.nodes[k][1])
+        .collect();
+    for (v, (vs, w)) in m.at_n.iter().enumerate() {
+        let g: f64 = (0..STENCIL_LEN).map(|a| f[vs[a]] * w[a]).sum();
+        assert!((g - f[v]).abs() < LOCATE_TOL);
+    }
+}
+
+#[test]
+fn displacement_is_rigid_on_the_patch_zero_on_walls_and_bounded() {
+    let mesh = channel();
+    let mut ale = TemporaryAle::new(&mesh);
+    // particle across the periodic seam
+    let disp = [0.012, -0.004];
+    let d = ale
+        .displacement(&mesh, &one_move([0.97, 0.05], disp), Some(2.0))
+        .unwrap();
+    let mut on_patch = 0;
+    for (v, &k) in mesh.node_of_vertex.iter().enumerate() {
+        let x = mesh.nodes[k];
+        if x[1].abs() > 0.5 - 1e-12 {
+            assert_eq!(d[v], [0.0, 0.0]);
+        }
+        let dx = (x[0] - 0.97) - 2.0 * ((x[0] - 0.97) / 2.0).round();
+        if dx.hypot(x[1] - 0.05) < 0.15 {
+            assert!((d[v][0] - disp[0]).abs() + (d[v][1] - disp[1]).abs() < SOLVE_TOL);
+            on_patch += 1;
+        }
+        // maximum principle, componentwise
+        assert!(d[v][0] > -SOLVE_TOL && d[v][0] < disp[0] + SOLVE_TOL);
+        assert!(d[v][1] < SOLVE_TOL && d[v][1] > disp[1] - SOLVE_TOL);
+    }
+    assert!(on_patch >= 4, "{on_patch}");
+}
+
+/// The pre-image xⁿ (in element e at ξ) moved by the displacement there: xⁿ + d(xⁿ).
+fn displaced(mesh: &Mesh, d: &[[f64; 2]], e: usize, xi: [f64; 2], xn: [f64; 2]) -> [f64; 2] {
+    let dn = q1(xi).0;
+    std::array::from_fn(|i| {
+        xn[i]
+            + (0..4)
+                .map(|a| dn[a] * d[mesh.element_vertices[e][a]][i])
+                .sum::<f64>()
+    })
+}
+
+#[test]
+fn pre_images_invert_the_ale_mesh_and_bilinear_fields_map_exactly() {
+    let mesh = channel();
+    let mut ale = TemporaryAle::new(&mesh);
+    assert_eq!(ale.remap, Remap::Bilinear);
+    let moves = one_move([0.97, 0.05], [0.02, 0.01]);
+    let m = ale.advance(&mesh, &moves, Some(2.0), 0.1, true).unwrap();
+    let d = &m.displacement;
+    let f = |p: [f64; 2]| 0.3 + 2.0 * p[1] + 0.7 * p[1] * p[1].abs().min(0.0);
+    let fv: Vec<f64> = mesh
+        .node_of_vertex
+        .iter()
+        .map(|&k| f(mesh.nodes[k]))
+        .collect();
+    for (v, &k) in mesh.node_of_vertex.iter().enumerate() {
+        let x = mesh.nodes[k];
+        let (e, xi, xn) = pre_image(&mesh, d, x, Some(2.0)).unwrap();
+        // x = xⁿ + d(xⁿ)
+        let back = displaced(&mesh, d, e, xi, xn);
+        assert!((back[0] - x[0]).abs() < LOCATE_TOL, "{x:?} {xn:?}");
+        assert!((back[1] - x[1]).abs() < LOCATE_TOL);
+        // a field linear in y is interpolated exactly by Q1
+        let (vs, w) = m.at_n[v];
+        let g: f64 = (0..STENCIL_LEN).map(|a| fv[vs[a]] * w[a]).sum();
+        assert!((g - f(xn)).abs() < LOCATE_TOL, "{g} {}", f(xn));
+    }
+}
+
+#[test]
+fn pre_images_beyond_the_neighbouring_elements_are_found() {
+    // A particle of radius 3h moving 1.7 elements in one step (the first predicted step
+    // moves by 2UΔt: a particle at y = −0.4 with U ≈ −0.41, Δt = 0.02, a = 5h = 0.05 moved
+    // 1.65h and its pre-images were lost when only the 3×3 elements around x were searched)
+    let mesh = channel();
+    let h = 0.1;
+    let mut ale = TemporaryAle::new(&mesh);
+    let moves = vec![RigidMove {
+        center: [0.3, 0.0],
+        radius: 3.0 * h,
+        displacement: [-1.7 * h, 0.2 * h],
+    }];
+    let m = ale.advance(&mesh, &moves, Some(2.0), 0.1, true).unwrap();
+    let d = &m.displacement;
+    for &k in &mesh.node_of_vertex {
+        let x = mesh.nodes[k];
+        let (e, xi, xn) = pre_image(&mesh, d, x, Some(2.0)).unwrap();
+        let back = nearest_image(displaced(&mesh, d, e, xi, xn), x, Some(2.0));
+        assert!((back[0] - x[0]).abs() < LOCATE_TOL, "{x:?} {xn:?}");
+        assert!((back[1] - x[1]).abs() < LOCATE_TOL);
+    }
+}
+
+/// The channel graded along and across (largest element 3× / 2× the smallest).
+fn graded_channel() -> Mesh {
+    Mesh::rectangle(
+        Axis::centred(-1.0, 1.0, 20, 3.0),
+        Axis::centred(-0.5, 0.5, 10, 2.0),
+        true,
+    )
+}
+
+/// The remap `remap` reproduces the field `f` (of the degree it interpolates exactly) at the
+/// pre-images of one move, walls (one-sided stencils) included, on the uniform and on the
+/// graded channel. Points near the periodic seam, where `f` is not periodic, are skipped.
+fn assert_remap_exact(remap: Remap, f: impl Fn([f64; 2]) -> f64) {
+    assert_remap_exact_on(channel(), remap, &f);
+    assert_remap_exact_on(graded_channel(), remap, &f);
+}
+
+fn assert_remap_exact_on(mesh: Mesh, remap: Remap, f: &impl Fn([f64; 2]) -> f64) {
+    let mut ale = TemporaryAle::new(&mesh);
+    ale.remap = remap;
+    let moves = one_move([0.0, 0.05], [0.013, -0.007]);
+    let m = ale.advance(&mesh, &moves, Some(2.0), 0.1, true).unwrap();
+    let fv: Vec<f64> = mesh
+        .node_of_vertex
+        .iter()
+        .map(|&k| f(mesh.nodes[k]))
+        .collect();
+    let mut checked = 0;
+    for (v, &k) in mesh.node_of_vertex.iter().enumerate() {
+        let x = mesh.nodes[k];
+        if x[0].abs() > 0.7 {
+            continue;
+        }
+        let (_, _, xn) = pre_image(&mesh, &m.displacement, x, Some(2.0)).unwrap();
+        let (vs, w) = m.at_n[v];
+        let g: f64 = (0..STENCIL_LEN).map(|a| fv[vs[a]] * w[a]).sum();
+        assert!(
+            (g - f(xn)).abs() < LOCATE_TOL,
+            "{remap:?} at {x:?}: {g} vs {}",
+            f(xn)
+        );
+        checked += 1;
+    }
+    assert!(checked > 100);
+}
+
+#[test]
+fn quadratic_remap_is_exact_for_biquadratic_fields() {
+    assert_remap_exact(Remap::Quadratic, |p| {
+        0.3 + 2.0 * p[1] - p[1] * p[1] + 0.7 * p[0] * p[0] + 0.4 * p[0] * p[1]
+            - 1.3 * p[0] * p[0] * p[1] * p[1]
+    });
+}
+
+/// A bicubic polynomial (degree 3 in x and in y) for the exactness tests.
+fn bicubic_field(p: [f64; 2]) -> f64 {
+    let (x, y) = (p[0], p[1]);
+    0.3 + 2.0 * y - y * y + 0.9 * y * y * y + 0.7 * x * x - 0.5 * x * x * x + 0.4 * x * y
+        - 1.3 * x * x * y * y * y
+        + 0.8 * x * x * x * y * y * y
+}
+
+/// A computational mesh moved by exactly one element column, without particle motion: every
+/// new vertex is an old vertex (the next column), so the history is relabelled exactly
+/// (Kronecker weights) and the mesh velocity is zero.
+#[test]
+fn a_mesh_moved_by_one_column_relabels_the_history_exactly() {
+    let old = channel();
+    let h = old.ax.vertices[1] - old.ax.vertices[0];
+    let shifted = Axis {
+        vertices: old.ax.vertices.iter().map(|x| x + h).collect(),
+    };
+    let new = old.with_axes(shifted, old.ay.clone());
+    let mut ale = TemporaryAle::new(&old);
+    ale.remap = Remap::Cubic;
+    let still = one_move([0.0, 0.05], [0.0, 0.0]);
+    let m = ale
+        .advance_onto(&old, &new, &still, Some(2.0), 0.1, true)
+        .unwrap();
+    let (nx, _) = old.dims();
+    for (v, (vs, w)) in m.at_n.iter().enumerate() {
+        let (i, j) = (v % nx, v / nx);
+        let next = ((i + 1) % nx) + nx * j;
+        let weight_there: f64 = (0..STENCIL_LEN)
+            .filter(|&a| vs[a] == next)
+            .map(|a| w[a])
+            .sum();
+        assert!(
+            (weight_there - 1.0).abs() < 1e-12,
+            "vertex {v}: {weight_there}"
+        );
+    }
+    assert!(m.mesh_velocity.iter().flatten().all(|u| u.abs() < 1e-9));
+}
+
+/// The Laplace problem follows the mesh it is solved on: after a solve on one mesh, a solve
+/// on a mesh with moved columns and rows equals that of a fresh solver built there.
+#[test]
+fn the_displacement_is_solved_on_the_mesh_given() {
+    let (m0, m1) = (channel(), graded_channel());
+    let moves = one_move([0.0, 0.05], [0.013, -0.007]);
+    let mut reused = TemporaryAle::new(&m0);
+    let on_m0 = reused.displacement(&m0, &moves, Some(2.0)).unwrap();
+    let on_m1 = reused.displacement(&m1, &moves, Some(2.0)).unwrap();
+    let fresh = TemporaryAle::new(&m1)
+        .displacement(&m1, &moves, Some(2.0))
+        .unwrap();
+    assert_eq!(on_m1, fresh);
+    assert_ne!(on_m0, on_m1, "the graded mesh has another Laplacian");
+}
+
+/// Onto a moved (graded) mesh, with a particle moving: the remap interpolates on the mesh of
+/// sⁿ and reproduces a bicubic field at the pre-images of the new mesh's vertices; a second
+/// step onto a third mesh locates x^{n−1} in the first mesh (the mesh of s^{n−1}) and
+/// reproduces the field there too.
+#[test]
+fn pre_images_of_a_moved_mesh_are_interpolated_on_the_meshes_of_the_history() {
+    let m0 = channel();
+    let m1 = graded_channel();
+    let m2 = m0.with_axes(
+        Axis::centred(-1.0, 1.0, 20, 2.0),
+        Axis::centred(-0.5, 0.5, 10, 1.5),
+    );
+    let mut ale = TemporaryAle::new(&m0);
+    ale.remap = Remap::Cubic;
+    let (dt, period) = (0.1, Some(2.0));
+    let field = |mesh: &Mesh| -> Vec<f64> {
+        mesh.node_of_vertex
+            .iter()
+            .map(|&k| bicubic_field(mesh.nodes[k]))
+            .collect()
+    };
+    let check = |at: &[StencilWeights], on: &Mesh, v: usize, xp: [f64; 2]| {
+        let f = field(on);
+        let (vs, w) = at[v];
+        let g: f64 = (0..STENCIL_LEN).map(|a| f[vs[a]] * w[a]).sum();
+        assert!(
+            (g - bicubic_field(xp)).abs() < LOCATE_TOL,
+            "{g} vs {} at {xp:?}",
+            bicubic_field(xp)
+        );
+    };
+    // step 1: s⁰ on m0, onto m1
+    let moves = one_move([0.0, 0.05], [0.013, -0.007]);
+    let a = ale
+        .advance_onto(&m0, &m1, &moves, period, dt, true)
+        .unwrap();
+    let mut checked = 0;
+    for (v, &k) in m1.node_of_vertex.iter().enumerate() {
+        let x = m1.nodes[k];
+        if x[0].abs() > 0.7 {
+            continue; // the field is not periodic
+        }
+        let (_, _, xn) = pre_image(&m0, &a.displacement, x, period).unwrap();
+        check(&a.at_n, &m0, v, xn);
+        checked += 1;
+    }
+    assert!(checked > 100);
+    // step 2: s¹ on m1 (s⁰ on m0), onto m2; the particle moved on
+    let moves = one_move([0.013, 0.043], [0.011, -0.006]);
+    let b = ale
+        .advance_onto(&m1, &m2, &moves, period, dt, false)
+        .unwrap();
+    let at_nm1 = b.at_n_minus_1.as_ref().expect("second-order step");
+    for (v, &k) in m2.node_of_vertex.iter().enumerate() {
+        let x = m2.nodes[k];
+        if x[0].abs() > 0.7 {
+            continue;
+        }
+        let (_, _, xn) = pre_image(&m1, &b.displacement, x, period).unwrap();
+        check(&b.at_n, &m1, v, xn);
+        // x^{n−1} from the BDF2 mesh velocity: u = (1.5 x − 2 xⁿ + 0.5 x^{n−1})/Δt
+        let u = b.mesh_velocity[k];
+        let xnm1 = [0, 1].map(|c| 2.0 * (u[c] * dt - 1.5 * x[c] + 2.0 * xn[c]));
+        check(at_nm1, &m0, v, xnm1);
+    }
+}
+
+#[test]
+fn cubic_remap_is_exact_for_bicubic_fields() {
+    assert_remap_exact(Remap::Cubic, bicubic_field);
+}
+
+/// On a graded axis the bicubic remap keeps its fourth order: one remap of sin(kx) under a
+/// shift of 0.37 of a mean element, x graded 3:1, on 40 / 80 / 160 elements. (Weights in
+/// index space gave 2.5e-3 / 7.9e-4 / 2.3e-4: second order.)
+#[test]
+fn cubic_remap_keeps_its_order_on_a_graded_axis() {
+    let error = |nx: usize| -> f64 {
+        let l = 2.0;
+        let mesh = Mesh::rectangle(
+            Axis::centred(-1.0, 1.0, nx, 3.0),
+            Axis::uniform(-0.5, 0.5, 4),
+            true,
+        );
+        let k = 2.0 * std::f64::consts::PI / l * 2.0;
+        let d = vec![[0.37 * l / nx as f64, 0.0]; mesh.n_vertices()];
+        let f = |x: f64| (k * x).sin();
+        let fv: Vec<f64> = mesh
+            .node_of_vertex
+            .iter()
+            .map(|&n| f(mesh.nodes[n][0]))
+            .collect();
+        let mut err: f64 = 0.0;
+        for &n in &mesh.node_of_vertex {
+            let (e, xi, xn) = pre_image(&mesh, &d, mesh.nodes[n], Some(l)).unwrap();
+            let (v, w) = stencil(&mesh, e, xi, Remap::Cubic);
+            let g: f64 = (0..STENCIL_LEN).map(|a| fv[v[a]] * w[a]).sum();
+            err = err.max((g - f(xn[0])).abs());
+        }
+        err
+    };
+    let e: Vec<f64> = [40, 80, 160].into_iter().map(error).collect();
+    for pair in e.windows(2) {
+        let order = (pair[0] / pair[1]).log2();
+        assert!(order > MIN_CUBIC_ORDER, "errors {e:?}: order {order:.2}");
+    }
+}
+
+/// Repeated remaps of a smooth field under a uniform shift of a fraction θ of an element
+/// per step (a particle's neighbourhood crossing the fixed mesh): the error accumulates
+/// per remap like a semi-Lagrangian scheme's. Bound per step and mode sin(kx):
+/// Lagrange interpolation error |Π(θ + j)|/(p + 1)! · (kh)^{p+1} for the p + 1 stencil
+/// points j; the cubic remap must stay within N times its bound and beat the quadratic one.
+#[test]
+fn repeated_remaps_accumulate_the_interpolation_error_of_their_order() {
+    let (nx, l) = (40, 2.0);
+    let mesh = Mesh::rectangle(
+        Axis::uniform(-1.0, 1.0, nx),
+        Axis::uniform(-0.5, 0.5, 4),
+        true,
+    );
+    let h = l / nx as f64;
+    let theta = 0.66;
+    let d = vec![[theta * h, 0.0]; mesh.n_vertices()];
+    let k = 2.0 * std::f64::consts::PI / l * 2.0;
+    let exact = |x: f64, t: usize| (k * (x - t as f64 * theta * h)).sin();
+    let steps = 50;
+    let run = |remap: Remap| -> f64 {
+        let at: Vec<StencilWeights> = mesh
+            .node_of_vertex
+            .iter()
+            .map(|&n| {
+                let (e, xi, _) = pre_image(&mesh, &d, mesh.nodes[n], Some(l)).unwrap();
+                stencil(&mesh, e, xi, remap)
+            })
+            .collect();
+        let xs: Vec<f64> = mesh
+            .node_of_vertex
+            .iter()
+            .map(|&n| mesh.nodes[n][0])
+            .collect();
+        let mut f: Vec<f64> = xs.iter().map(|&x| exact(x, 0)).collect();
+        for _ in 0..steps {
+            f = at
+                .iter()
+                .map(|(v, w)| (0..STENCIL_LEN).map(|a| f[v[a]] * w[a]).sum())
+                .collect();
+        }
+        xs.iter()
+            .zip(&f)
+            .map(|(&x, g)| (g - exact(x, steps)).abs())
+            .fold(0.0, f64::max)
+    };
+    let (quadratic, cubic) = (run(Remap::Quadratic), run(Remap::Cubic));
+    // the cubic stencil holds θ between its 2nd and 3rd points: nodes at θ + 1, θ, θ − 1, θ − 2
+    let node_product = |nodes: &[f64]| nodes.iter().map(|z| z.abs()).product::<f64>();
+    let cubic_bound = steps as f64 * node_product(&[theta + 1.0, theta, theta - 1.0, theta - 2.0])
+        / 24.0
+        * (k * h).powi(4);
+    assert!(
+        cubic < cubic_bound,
+        "cubic {cubic:.3e} above its bound {cubic_bound:.3e}"
+    );
+    assert!(
+        cubic < quadratic / 3.0,
+        "cubic {cubic:.3e} not well below quadratic {quadratic:.3e}"
+    );
+}
+
+#[test]
+fn mesh_velocity_of_a_steadily_moving_particle() {
+    let mesh = channel();
+    let mut ale = TemporaryAle::new(&mesh);
+    let (v, dt) = ([0.3, -0.1], 0.02);
+    let step = [v[0] * dt, v[1] * dt];
+    let mut c = [0.2, 0.0];
+    let mut last = None;
+    for first in [true, false, false] {
+        last = Some(
+            ale.advance(&mesh, &one_move(c, step), Some(2.0), dt, first)
+                .unwrap(),
+        );
+        c = [c[0] + step[0], c[1] + step[1]];
+    }
+    let m = last.unwrap();
+    assert!(m.at_n_minus_1.is_some());
+    // nodes well inside the rigid patch (r < a - h) move with the particle, walls stay
+    let c_prev = [c[0] - step[0], c[1] - step[1]];
+    for (k, x) in mesh.nodes.iter().enumerate() {
+        let r = (x[0] - c_prev[0]).hypot(x[1] - c_prev[1]);
+        if r < 0.05 {
+            let u = m.mesh_velocity[k];
+            assert!((u[0] - v[0]).abs() + (u[1] - v[1]).abs() < 1e-9, "{u:?}");
+        }
+        if x[1].abs() > 0.5 - 1e-12 {
+            assert!(m.mesh_velocity[k][0].abs() + m.mesh_velocity[k][1].abs() < 1e-12);
+        }
+    }
+}

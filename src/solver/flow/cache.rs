@@ -1,0 +1,114 @@
+//! What the flow solver keeps between steps besides the factorization: the fluid base matrix
+//! (elements outside every particle's reach and outside the moving-element mask), that mask,
+//! and the fluid matrices of axis-parallel rectangles by their sides.
+
+use std::collections::HashMap;
+
+use super::dofs::{element_dofs, MAX_EL_DOFS};
+use super::kernels::{fluid_element_matrix, shape_table};
+use super::Stokes;
+use crate::mesh::bounding_box;
+
+/// Margin, in elements along each index direction, by which [`Stokes::set_mesh`] widens the
+/// elements whose coordinates changed when it adds them to the moving-element mask (elements
+/// assembled every step, outside the cached fluid base). A grading that travels with the
+/// particles changes a band of columns and rows that moves with them by a fraction of an
+/// element per time step: with the margin the band travels about this many elements before a
+/// changed element falls outside the mask and the base must be rebuilt (one assembly of the
+/// fluid elements) instead of at every step. The price is 2 × 4 more columns (and rows) of
+/// elements assembled every step — 4 % of a 200×50 channel per column band — cheap beside the
+/// numeric factorization that a moved mesh needs at every step anyway.
+pub(super) const MOVING_MARGIN: usize = 4;
+
+/// Whether element `e`'s matrix is assembled every step rather than cached in the fluid base:
+/// it lies in some particle's reach (it may be cut while the pattern lasts) or in the
+/// moving-element mask (its coordinates may change).
+pub(super) fn assembled_each_step(reach: &[Vec<bool>], moving: &[bool], e: usize) -> bool {
+    moving[e] || reach.iter().any(|r| r[e])
+}
+
+/// The elements of `marked` (numbered `ey·nx + ex`, `dims` = (nx, ny)) widened by `margin`
+/// elements along each index direction (a box), wrapping around a periodic first direction.
+pub(super) fn dilate(
+    marked: &[bool],
+    (nx, ny): (usize, usize),
+    periodic: bool,
+    margin: usize,
+) -> Vec<bool> {
+    let m = margin as isize;
+    let mut wide = vec![false; nx * ny];
+    for e in (0..nx * ny).filter(|&e| marked[e]) {
+        let (ex, ey) = ((e % nx) as isize, e / nx);
+        for d in -m..=m {
+            let x = ex + d;
+            let x = if periodic {
+                x.rem_euclid(nx as isize)
+            } else if (0..nx as isize).contains(&x) {
+                x
+            } else {
+                continue;
+            };
+            wide[ey * nx + x as usize] = true;
+        }
+    }
+    let mut out = vec![false; nx * ny];
+    for e in (0..nx * ny).filter(|&e| wide[e]) {
+        let (ex, ey) = (e % nx, (e / nx) as isize);
+        for y in (ey - m).max(0)..=(ey + m).min(ny as isize - 1) {
+            out[y as usize * nx + ex] = true;
+        }
+    }
+    out
+}
+
+impl Stokes {
+    /// Matrix values of the elements outside every reach and the moving-element mask (no stress,
+    /// no constraints).
+    pub(super) fn fluid_values(&mut self) -> Vec<f64> {
+        let lay = self.layout;
+        let (eta, theta) = (self.params.eta, self.params.theta);
+        let nd = 22 + if lay.with_g { 16 } else { 0 };
+        let tab = shape_table(&self.rule);
+        let mut dofs = Vec::with_capacity(MAX_EL_DOFS);
+        let mut ke = vec![0.0; nd * nd];
+        let zero = vec![0.0; nd];
+        let mut scratch = vec![0.0; lay.n_dofs()];
+        self.matrix.zero();
+        for e in 0..self.mesh.n_elements() {
+            if assembled_each_step(&self.reach, &self.moving, e) {
+                continue;
+            }
+            element_dofs(&self.mesh, &lay, e, &mut dofs);
+            let xe = &self.mesh.element_coords[e];
+            fluid_element_matrix(xe, &self.rule, &tab, eta, theta, lay.with_g, &mut ke);
+            self.matrix
+                .scatter(&dofs, &ke, &zero, &mut scratch, &self.unconstrained);
+        }
+        self.matrix.values.clone()
+    }
+}
+
+/// (η, θ) and the fluid element matrices by rectangle sides (see `Stokes::rectangles`).
+pub(super) type RectangleMatrices = (f64, f64, HashMap<[u64; 2], Box<[f64]>>);
+
+/// Distinct rectangle sizes kept by [`Stokes`] between steps before it starts afresh (a mesh
+/// that follows the particles creates a few hundred per step; 4096 matrices of 38×38 are 47 MB).
+pub(super) const RECTANGLE_CACHE_LEN: usize = 4096;
+
+/// The side lengths (bit patterns) of an axis-parallel rectangular element, whose fluid matrix
+/// depends on them only, and the same element placed with its lower-left corner at the origin:
+/// the matrix computed there is the same whichever element of these sides asks first (a
+/// restored run assembles bit for bit what the saved one did).
+pub(super) fn canonical_rectangle(xe: &[[f64; 2]; 9]) -> ([u64; 2], [[f64; 2]; 9]) {
+    let (lo, hi) = bounding_box(xe);
+    let side = [hi[0] - lo[0], hi[1] - lo[1]];
+    let mut canonical = [[0.0; 2]; 9];
+    for (y, x) in canonical.iter_mut().zip(xe) {
+        for c in 0..2 {
+            // the node's place along the side: 0, 1/2 or 1
+            let t = (2.0 * (x[c] - lo[c]) / side[c]).round() * 0.5;
+            y[c] = t * side[c];
+        }
+    }
+    ([side[0].to_bits(), side[1].to_bits()], canonical)
+}

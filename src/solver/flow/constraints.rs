@@ -1,0 +1,95 @@
+//! Constraints of the flow system: identity rows of the nodes touching no fluid, prescribed
+//! particle motions, wall velocities (re-evaluated on a moved mesh) and the pressure pin.
+
+use super::{Layout, Stokes};
+use crate::mesh::{Mesh, Side};
+use crate::solver::rigid::{ElementCut, Motion};
+
+/// A wall velocity x ↦ u(x) of [`Stokes::set_velocity`], kept to re-evaluate it on a moved mesh.
+pub(super) type WallVelocity = Box<dyn Fn([f64; 2]) -> [f64; 2] + Send + Sync>;
+
+/// Appends the (dof, value) pairs of the velocity `f` at the nodes of `side`.
+pub(super) fn push_wall_values(
+    mesh: &Mesh,
+    layout: &Layout,
+    side: Side,
+    f: &dyn Fn([f64; 2]) -> [f64; 2],
+    out: &mut Vec<(usize, f64)>,
+) {
+    for k in mesh.side_nodes(side) {
+        let v = f(mesh.nodes[k]);
+        for (c, vc) in v.iter().enumerate() {
+            out.push((layout.u(k, c), *vc));
+        }
+    }
+}
+
+impl Stokes {
+    /// The constraints of the current cuts, particle motions, wall velocities and pressure pin.
+    pub(super) fn reset_constraints(&mut self) {
+        self.fixed = self.geometric_constraints();
+        for &(dof, v) in &self.wall_values {
+            self.fixed[dof] = Some(v);
+        }
+        if self.pressure_pinned {
+            self.pin_pressure();
+        }
+    }
+
+    /// Identity rows of the nodes touching no fluid and the prescribed particle motions.
+    pub(super) fn geometric_constraints(&self) -> Vec<Option<f64>> {
+        let (mesh, layout) = (&self.mesh, &self.layout);
+        let mut fixed = vec![None; layout.n_dofs()];
+        let mut active = vec![false; layout.n_nodes];
+        for (e, cut) in self.cuts.iter().enumerate() {
+            if !matches!(cut, ElementCut::Inside) {
+                mesh.elements[e].iter().for_each(|&k| active[k] = true);
+            }
+        }
+        for k in 0..layout.n_nodes {
+            if !active[k] {
+                fixed[layout.u(k, 0)] = Some(0.0);
+                fixed[layout.u(k, 1)] = Some(0.0);
+                if let Some(v) = mesh.vertex_of_node[k] {
+                    fixed[layout.p(v)] = Some(0.0);
+                    if layout.with_g {
+                        (0..4).for_each(|ij| fixed[layout.g(v, ij)] = Some(0.0));
+                    }
+                }
+            }
+        }
+        for (i, p) in self.particles.iter().enumerate() {
+            if let Motion::Prescribed { u, omega } = p.motion {
+                fixed[layout.rigid(i, 0)] = Some(u[0]);
+                fixed[layout.rigid(i, 1)] = Some(u[1]);
+                fixed[layout.rigid(i, 2)] = Some(omega);
+            }
+        }
+        fixed
+    }
+
+    /// Prescribes the velocity `f(x)` at all nodes of the given side (a later call wins at nodes
+    /// shared by two sides). `f` is kept and re-evaluated when the mesh moves
+    /// ([`set_mesh`](Self::set_mesh)).
+    pub fn set_velocity(
+        &mut self,
+        side: Side,
+        f: impl Fn([f64; 2]) -> [f64; 2] + Send + Sync + 'static,
+    ) {
+        let start = self.wall_values.len();
+        push_wall_values(&self.mesh, &self.layout, side, &f, &mut self.wall_values);
+        for &(dof, v) in &self.wall_values[start..] {
+            self.fixed[dof] = Some(v);
+        }
+        self.walls.push((side, Box::new(f)));
+    }
+
+    /// Pins the pressure at vertex 0 (for flows with velocity prescribed on the whole boundary).
+    pub fn pin_pressure(&mut self) {
+        let v = (0..self.layout.n_vertices)
+            .find(|&v| self.fixed[self.layout.p(v)].is_none())
+            .expect("some pressure vertex touches the fluid");
+        self.fixed[self.layout.p(v)] = Some(0.0);
+        self.pressure_pinned = true;
+    }
+}

@@ -1,0 +1,448 @@
+//! Stokes flow with Taylor–Hood Q2/Q1 elements and the optional DEVSS-G projection (thesis Eqs.
+//! 2.13, 2.14, 2.16 without polymer stress and particles), assembled as one symmetric system.
+//!
+//! Weak form, with L(u)_{ij} = ∂u_i/∂x_j the velocity gradient and G its Q1 projection:
+//!
+//! ```text
+//!   (2η D(u), D(v)) + θ (L(u) − G, L(v)) − (∇·v, p) = (f, v)        ∀ v   (2.13)
+//!   −(q, ∇·u)                                        = 0             ∀ q   (2.14)
+//!   −θ (H, L(u) − G)                                 = 0             ∀ H   (2.16, scaled by −θ)
+//! ```
+//!
+//! Scaling the projection equation by −θ makes the block matrix symmetric,
+//! `[[A, −θCᵀ, Bᵀ], [−θC, θM, 0], [B, 0, 0]]`, and its (u, G) block positive semi-definite
+//! (`uᵀAu − 2θ Gᵀ C u + θ Gᵀ M G = ‖2η^{1/2} D(u)‖² + θ ‖L(u) − G‖²`), so the symmetric indefinite
+//! LBLᵀ factorization applies. θ = 0 drops G altogether (plain Stokes).
+//! Dirichlet velocities are eliminated symmetrically; for enclosed flows the pressure is pinned
+//! at one vertex and shifted to zero mean afterwards.
+//!
+//! Here: [`Stokes`] and its public API (setup, particle and mesh moves, solves); the numbering
+//! of the unknowns, the sparsity pattern, the constraints, the caches kept between steps, the
+//! assembly, the element kernels and the particle forces are in the submodules.
+
+mod assemble;
+mod cache;
+mod constraints;
+mod dofs;
+mod forces;
+mod kernels;
+mod pattern;
+#[cfg(test)]
+mod tests;
+
+pub use dofs::Layout;
+
+use std::collections::HashMap;
+use std::time::Instant;
+
+use cache::{dilate, RectangleMatrices, MOVING_MARGIN};
+use constraints::{push_wall_values, WallVelocity};
+use pattern::{build_pattern, reach_covers, reach_for};
+
+use crate::fem::element::{q1, q2_map};
+use crate::fem::linsolve::{DirectSolver, SolveError, SolverKind};
+use crate::fem::quadrature::{gauss_quad, QuadRule};
+use crate::fem::sparse::SparseMatrix;
+use crate::mesh::{Mesh, Side};
+use crate::solver::polymer_terms::PolymerStress;
+use crate::solver::rigid::{ElementCut, Particle, WeakForm};
+
+/// Physical and numerical parameters of a Stokes solve.
+#[derive(Debug, Clone, Copy)]
+pub struct StokesParams {
+    /// Viscosity η of the 2η D(u) term (the solvent viscosity in viscoelastic flow).
+    pub eta: f64,
+    /// DEVSS-G parameter θ (the polymer viscosity in viscoelastic flow); 0 = no G unknowns.
+    pub theta: f64,
+    /// Linear solver.
+    pub solver: SolverKind,
+    /// Form of the weak rigid-body condition on particles.
+    pub rigid_form: WeakForm,
+    /// Stabilization parameter κ of the weak rigid-body condition (thesis: κ = η0).
+    pub kappa: f64,
+    /// With θ > 0: G as coupled unknowns (true) or supplied explicitly by the caller through
+    /// [`PolymerStress`] as −θGⁿ (false; the flow matrix then has no G block).
+    pub coupled_g: bool,
+    /// Patch ghost penalty of velocity and pressure on the faces of cut elements
+    /// ([`ghost_patch_matrices`](crate::solver::ghost::ghost_patch_matrices)): velocity
+    /// γ (η + θ)/h², pressure −γ/(η + θ); 0 = none.
+    pub ghost_penalty: f64,
+}
+
+impl StokesParams {
+    /// Parameters with viscosity `eta`, DEVSS-G `theta`, the given solver, and the weak rigid-body
+    /// condition in its symmetric form with κ = η + θ (= η0).
+    pub fn new(eta: f64, theta: f64, solver: SolverKind) -> Self {
+        Self {
+            eta,
+            theta,
+            solver,
+            rigid_form: WeakForm::Symmetric,
+            kappa: eta + theta,
+            coupled_g: true,
+            ghost_penalty: FLOW_GHOST_PENALTY,
+        }
+    }
+}
+
+/// Wall-clock seconds spent in the phases of the last solve.
+#[derive(Debug, Clone, Copy, Default)]
+pub struct Timings {
+    /// Element loop and scatter.
+    pub assembly: f64,
+    /// Symbolic analysis (only on the first solve).
+    pub symbolic: f64,
+    /// Numeric factorization.
+    pub numeric: f64,
+    /// Triangular solves and residual check.
+    pub solve: f64,
+}
+
+/// A Stokes solution in nodal form.
+#[derive(Debug, Clone)]
+pub struct StokesSolution {
+    /// Velocity at each Q2 node.
+    pub u: Vec<[f64; 2]>,
+    /// Pressure at each Q1 vertex (zero mean for enclosed flows).
+    pub p: Vec<f64>,
+    /// Projected velocity gradient at each Q1 vertex (when θ > 0), `[G_xx, G_xy, G_yx, G_yy]`.
+    pub g: Option<Vec<[f64; 4]>>,
+    /// Rigid velocities (U_x, U_y, ω) of the particles.
+    pub rigid: Vec<[f64; 3]>,
+    /// Hydrodynamic force and torque (F_x, F_y, T) on each particle from the weak-condition
+    /// reaction (consistent with the discrete momentum balance; ≈ 0 for free particles).
+    pub reaction: Vec<[f64; 3]>,
+    /// The same from the stress integral −∫ σ(u_h, p_h)·n ds over the particle boundary.
+    pub stress_force: Vec<[f64; 3]>,
+    /// Relative residual of the linear solve.
+    pub residual: f64,
+}
+
+/// Default patch ghost-penalty coefficient of the flow ([`StokesParams::ghost_penalty`]). Chosen
+/// by measurement (docs/validation.md): 0.001 removes the sliver velocities (|u| ≤ wall speed,
+/// point symmetry to 1e-8) and perturbs the free Couette particle's ω by 3e-4 on 64×12; 0.01
+/// perturbs it by 3e-3 and 0.1 moves the confined-cylinder drag by 5e-4 at h = 0.2R.
+pub const FLOW_GHOST_PENALTY: f64 = 0.001;
+
+/// Relative residual accepted from the direct solver (a few hundred ulps of the matrix norm).
+const RESIDUAL_TOL: f64 = 1e-10;
+
+/// A reusable Stokes solver on a mesh of fixed topology: the pattern and the symbolic
+/// factorization are built once; each [`solve`](Self::solve) assembles, refactors numerically and
+/// solves. The mesh's vertex columns and rows may move ([`set_mesh`](Self::set_mesh)).
+pub struct Stokes {
+    /// The mesh.
+    pub mesh: Mesh,
+    /// Parameters.
+    pub params: StokesParams,
+    /// Unknown numbering.
+    pub layout: Layout,
+    matrix: SparseMatrix,
+    rhs: Vec<f64>,
+    sol: Vec<f64>,
+    fixed: Vec<Option<f64>>,
+    /// Wall velocities (dof, value) set by [`set_velocity`](Self::set_velocity), kept when
+    /// the particles move.
+    wall_values: Vec<(usize, f64)>,
+    /// The wall velocities as given, in call order, re-evaluated on a moved mesh.
+    walls: Vec<(Side, WallVelocity)>,
+    pressure_pinned: bool,
+    solver: Option<DirectSolver>,
+    factored_values: Option<Vec<f64>>,
+    /// Numeric factorizations done so far (a solve reuses the last one when the matrix is
+    /// unchanged).
+    pub refactorizations: usize,
+    /// Pattern (and symbolic analysis) rebuilds caused by [`set_particles`](Self::set_particles).
+    pub pattern_rebuilds: usize,
+    /// Invalidations of the cached fluid base matrix by [`set_mesh`](Self::set_mesh) (an element
+    /// outside the moving-element mask moved); the base is rebuilt at the next solve.
+    pub base_rebuilds: usize,
+    rule: QuadRule,
+    particles: Vec<Particle>,
+    cuts: Vec<ElementCut>,
+    /// Per particle, the elements coupled to its rigid-body unknowns in the pattern.
+    reach: Vec<Vec<bool>>,
+    /// Matrix values of the elements outside every particle's reach (fluid while the pattern
+    /// lasts) and outside `moving`, without stress or constraints, and the (η, θ) they were
+    /// built with: with no stress in the matrix (explicit coupling) a step starts from them and
+    /// assembles the matrix of the elements in reach or in `moving` only. (Subtracting cut
+    /// elements from an all-fluid base instead lost the relative accuracy of the tiny entries of
+    /// sliver rows to cancellation; for the same reason a moved element is never subtracted and
+    /// re-added, the base is rebuilt without it.)
+    fluid_base: Option<(Vec<f64>, f64, f64)>,
+    /// Per element, whether its coordinates may change ([`set_mesh`](Self::set_mesh)): such
+    /// elements are left out of the fluid base and assembled every step.
+    moving: Vec<bool>,
+    /// Fluid element matrices of axis-parallel rectangles by their sides (the matrix of such an
+    /// element depends on them only), for the elements assembled every step, with the (η, θ)
+    /// they were built with: the columns of a mesh that follows the particles have one width
+    /// each, so a step computes one matrix per column and row size instead of per element.
+    rectangles: RectangleMatrices,
+    /// All dofs unconstrained (assembly before the elimination of constraints).
+    unconstrained: Vec<Option<f64>>,
+    /// Timings of the last solve.
+    pub timings: Timings,
+}
+
+impl Stokes {
+    /// Builds the unknown numbering and the sparsity pattern on `mesh` (no particles).
+    pub fn new(mesh: Mesh, params: StokesParams) -> Self {
+        let cuts = vec![ElementCut::Fluid; mesh.n_elements()];
+        Self::with_particles(mesh, params, Vec::new(), cuts)
+    }
+
+    /// Builds the solver for a mesh cut by particles: `cuts[e]` says whether element `e` is fluid,
+    /// inside a particle or cut (with its fluid-part and boundary quadrature). Dofs of nodes that
+    /// touch no fluid become identity rows; prescribed particle motions are eliminated.
+    ///
+    /// # Panics
+    /// Panics if `cuts.len()` differs from the number of elements.
+    pub fn with_particles(
+        mesh: Mesh,
+        params: StokesParams,
+        particles: Vec<Particle>,
+        cuts: Vec<ElementCut>,
+    ) -> Self {
+        assert_eq!(cuts.len(), mesh.n_elements(), "one ElementCut per element");
+        let layout = Layout {
+            n_nodes: mesh.n_nodes(),
+            n_vertices: mesh.n_vertices(),
+            with_g: params.theta > 0.0 && params.coupled_g,
+            n_particles: particles.len(),
+        };
+        let reach = reach_for(&mesh, &particles, &cuts);
+        let matrix = build_pattern(&mesh, &layout, &reach);
+        let n = layout.n_dofs();
+        let n_elements = mesh.n_elements();
+        let mut st = Self {
+            mesh,
+            params,
+            layout,
+            matrix,
+            rhs: vec![0.0; n],
+            sol: vec![0.0; n],
+            fixed: Vec::new(),
+            wall_values: Vec::new(),
+            walls: Vec::new(),
+            pressure_pinned: false,
+            solver: None,
+            factored_values: None,
+            refactorizations: 0,
+            pattern_rebuilds: 0,
+            base_rebuilds: 0,
+            rule: gauss_quad(3),
+            particles,
+            cuts,
+            reach,
+            fluid_base: None,
+            moving: vec![false; n_elements],
+            rectangles: (0.0, 0.0, HashMap::new()),
+            unconstrained: vec![None; n],
+            timings: Timings::default(),
+        };
+        st.fixed = st.geometric_constraints();
+        st
+    }
+
+    /// Moves the particles (same number, new centres and motions) and cuts: the pattern and the
+    /// symbolic factorization are kept while every cut element lies in its particles' reach
+    /// (about two element sizes of travel) and rebuilt around the new positions
+    /// otherwise. Wall velocities and the pressure pin are kept. After
+    /// [`set_mesh`](Self::set_mesh), `cuts` are those of the new mesh.
+    ///
+    /// # Panics
+    /// Panics if the number of particles or of cuts changes.
+    pub fn set_particles(&mut self, particles: Vec<Particle>, cuts: Vec<ElementCut>) {
+        assert_eq!(particles.len(), self.particles.len(), "same particles");
+        assert_eq!(
+            cuts.len(),
+            self.mesh.n_elements(),
+            "one ElementCut per element"
+        );
+        self.particles = particles;
+        self.cuts = cuts;
+        if !reach_covers(&self.reach, &self.cuts) {
+            self.reach = reach_for(&self.mesh, &self.particles, &self.cuts);
+            self.matrix = build_pattern(&self.mesh, &self.layout, &self.reach);
+            self.solver = None;
+            self.fluid_base = None;
+            self.pattern_rebuilds += 1;
+        }
+        self.factored_values = None;
+        self.reset_constraints();
+    }
+
+    /// Moves the mesh's vertex columns and rows: `mesh` has this mesh's topology (shape, element
+    /// counts, periodicity and period; typically `self.mesh.with_axes(ax, ay)`), only its
+    /// coordinates differ. The pattern, the particles' reach and the symbolic factorization are
+    /// kept (they depend on the topology only); the numeric factorization is redone, the wall
+    /// velocities of [`set_velocity`](Self::set_velocity) are evaluated at the new node
+    /// coordinates and the pressure pin is kept.
+    ///
+    /// Elements whose coordinates changed (exact comparison) must lie in a mask of elements
+    /// assembled every step; the cached matrix of the elements outside it and outside the
+    /// particles' reach is kept while they do. Otherwise the mask becomes the changed elements
+    /// widened by a few elements (`MOVING_MARGIN`, 4) and that matrix is rebuilt at the next
+    /// solve.
+    ///
+    /// The cuts are not recomputed: with particles, call [`set_particles`](Self::set_particles)
+    /// next, with cuts computed on the new mesh, before solving.
+    ///
+    /// # Panics
+    /// Panics if the shape, the element counts, the periodicity or the period differ.
+    pub fn set_mesh(&mut self, mesh: Mesh) {
+        let old = &self.mesh;
+        assert!(
+            mesh.shape == old.shape && mesh.periodic == old.periodic && mesh.dims() == old.dims(),
+            "Stokes::set_mesh: another topology"
+        );
+        let span = |m: &Mesh| m.ax.vertices[m.ax.len()] - m.ax.vertices[0];
+        assert!(
+            !mesh.periodic || (span(&mesh) - span(old)).abs() <= 1e-12 * span(old),
+            "Stokes::set_mesh: another period"
+        );
+        debug_assert!(
+            mesh.elements == old.elements && mesh.element_vertices == old.element_vertices
+        );
+        let changed: Vec<bool> = (mesh.element_coords.iter().zip(&old.element_coords))
+            .map(|(a, b)| a != b)
+            .collect();
+        if changed.iter().zip(&self.moving).any(|(&c, &m)| c && !m) {
+            // the base is rebuilt from the current coordinates: the mask need only hold the band
+            // that moves now (a mask that only grew would empty the base of a particle that
+            // travels along the channel)
+            self.moving = dilate(&changed, mesh.dims(), mesh.periodic, MOVING_MARGIN);
+            self.fluid_base = None;
+            self.base_rebuilds += 1;
+        }
+        self.mesh = mesh;
+        self.factored_values = None;
+        self.wall_values.clear();
+        for (side, f) in &self.walls {
+            push_wall_values(&self.mesh, &self.layout, *side, f, &mut self.wall_values);
+        }
+        self.reset_constraints();
+    }
+
+    /// The particles.
+    pub fn particles(&self) -> &[Particle] {
+        &self.particles
+    }
+
+    /// Number of unknowns and of stored matrix entries.
+    pub fn size(&self) -> (usize, usize) {
+        (self.layout.n_dofs(), self.matrix.nnz())
+    }
+
+    /// Assembles with body force `f`, factorizes (symbolic analysis on the first call only) and
+    /// solves.
+    pub fn solve(
+        &mut self,
+        f: &dyn Fn([f64; 2]) -> [f64; 2],
+    ) -> Result<StokesSolution, SolveError> {
+        self.solve_with(f, None)
+    }
+
+    /// Like [`solve`](Self::solve), with a polymer stress in the momentum balance (volume and
+    /// particle-boundary terms). An implicit stress needs the LU solver (non-symmetric matrix).
+    pub fn solve_with(
+        &mut self,
+        f: &dyn Fn([f64; 2]) -> [f64; 2],
+        stress: Option<&dyn PolymerStress>,
+    ) -> Result<StokesSolution, SolveError> {
+        if let Some(ps) = stress {
+            assert!(
+                !(ps.is_implicit() && self.params.solver == SolverKind::Lblt),
+                "an implicit polymer stress makes the flow matrix non-symmetric: use SolverKind::Lu"
+            );
+        }
+        let t0 = Instant::now();
+        self.assemble(f, stress);
+        let t1 = Instant::now();
+        let mut symbolic = 0.0;
+        if self.solver.is_none() {
+            self.solver = Some(match self.params.solver {
+                SolverKind::Lblt => DirectSolver::analyze_blocked(
+                    &self.matrix,
+                    SolverKind::Lblt,
+                    &self.dof_blocks(),
+                )?,
+                SolverKind::Lu => DirectSolver::analyze(&self.matrix, SolverKind::Lu)?,
+            });
+            symbolic = t1.elapsed().as_secs_f64();
+        }
+        let t2 = Instant::now();
+        let solver = self.solver.as_mut().expect("analysed above");
+        // The matrix depends on the geometry, the constraints and an implicit stress only: when
+        // its values are bitwise those of the last factorization (explicit stress coupling on a
+        // fixed geometry) the factorization is reused and only the solve is paid.
+        if self.factored_values.as_deref() != Some(self.matrix.values.as_slice()) {
+            solver.factor(&self.matrix)?;
+            self.factored_values = Some(self.matrix.values.clone());
+            self.refactorizations += 1;
+        }
+        let t3 = Instant::now();
+        let residual =
+            solver.solve_checked(&self.matrix, &self.rhs, &mut self.sol, RESIDUAL_TOL)?;
+        self.timings = Timings {
+            assembly: (t1 - t0).as_secs_f64(),
+            symbolic,
+            numeric: (t3 - t2).as_secs_f64(),
+            solve: t3.elapsed().as_secs_f64(),
+        };
+        Ok(self.extract(residual))
+    }
+
+    fn extract(&self, residual: f64) -> StokesSolution {
+        let lay = self.layout;
+        let u = (0..lay.n_nodes)
+            .map(|k| [self.sol[lay.u(k, 0)], self.sol[lay.u(k, 1)]])
+            .collect();
+        let mut p: Vec<f64> = (0..lay.n_vertices).map(|v| self.sol[lay.p(v)]).collect();
+        if self.pressure_pinned {
+            let mean = mean_q1(&self.mesh, &p);
+            p.iter_mut().for_each(|v| *v -= mean);
+        }
+        let g = lay.with_g.then(|| {
+            (0..lay.n_vertices)
+                .map(|v| [0, 1, 2, 3].map(|ij| self.sol[lay.g(v, ij)]))
+                .collect()
+        });
+        let rigid = (0..lay.n_particles)
+            .map(|i| [0, 1, 2].map(|c| self.sol[lay.rigid(i, c)]))
+            .collect();
+        let (reaction, stress_force) = self.particle_forces();
+        StokesSolution {
+            u,
+            p,
+            g,
+            rigid,
+            reaction,
+            stress_force,
+            residual,
+        }
+    }
+
+    /// Largest asymmetry of the assembled matrix (0 up to round-off: the system is symmetric).
+    pub fn matrix_asymmetry(&self) -> f64 {
+        self.matrix.asymmetry()
+    }
+}
+
+/// Mean of a Q1 field over the mesh.
+pub fn mean_q1(mesh: &Mesh, p: &[f64]) -> f64 {
+    let rule = gauss_quad(2);
+    let (mut int, mut area) = (0.0, 0.0);
+    for e in 0..mesh.n_elements() {
+        for (xi, w) in rule.points.iter().zip(&rule.weights) {
+            let det = q2_map(&mesh.element_coords[e], *xi).2;
+            let psi = q1(*xi).0;
+            let val: f64 = (0..4)
+                .map(|k| psi[k] * p[mesh.element_vertices[e][k]])
+                .sum();
+            int += w * det * val;
+            area += w * det;
+        }
+    }
+    int / area
+}
