@@ -5,6 +5,7 @@ use super::{ConvRow, ConvStudy};
 use crate::fem::element::{physical_gradients, q1, q2, q2_map};
 use crate::fem::linsolve::SolverKind;
 use crate::fem::quadrature::gauss_quad;
+use crate::geometry::CylinderChannel;
 use crate::mesh::{Axis, Mesh, Side};
 use crate::solver::cutcells::{compute_cuts, CutError};
 use crate::solver::flow::{Stokes, StokesParams, StokesSolution};
@@ -248,38 +249,23 @@ pub fn solver_for(form: WeakForm) -> SolverKind {
     }
 }
 
-/// x of the cylinder centre. The channel is periodic in x, so the position is immaterial to the
-/// flow; it is off the grid lines so that the cylinder is nowhere tangent to an element edge
-/// (exact tangencies make the cut-cell quadtree refine deeply: slow, not wrong).
-const CYLINDER_X: f64 = 0.0123;
-
-/// Axes of the confined-cylinder channel for element size `h` near the cylinder: uniform in the
-/// band |x| ≤ 1.6 (centre X off its grid lines) and over the height (an odd number of elements, so that y = ±1 — where the
-/// cylinder touches horizontal lines — is no grid line), growing by 15 % per element outside.
-fn channel_axes(h: f64) -> (Axis, Axis) {
-    let ny = (4.0 / h).round() as usize | 1;
-    (
-        Axis::banded(-15.0, 15.0, -1.6, 1.6, h, 1.15),
-        Axis::uniform(-2.0, 2.0, ny),
-    )
-}
-
 /// The confined-cylinder channel mesh, the fixed cylinder and the cut cells.
 fn cylinder_channel(
     h: f64,
     opts: CutOptions,
 ) -> Result<(Mesh, Vec<Particle>, Vec<ElementCut>), StudyError> {
-    let (ax, ay) = channel_axes(h);
+    let channel = CylinderChannel::BENCHMARK;
+    let (ax, ay) = channel.axes(h);
     let mesh = Mesh::rectangle(ax, ay, true);
     let particles = vec![Particle {
-        center: [CYLINDER_X, 0.0],
-        radius: 1.0,
+        center: channel.center(),
+        radius: channel.radius,
         motion: Motion::Prescribed {
             u: [0.0, 0.0],
             omega: 0.0,
         },
     }];
-    let cuts = compute_cuts(&mesh, &particles, Some(30.0), opts)?;
+    let cuts = compute_cuts(&mesh, &particles, Some(channel.length), opts)?;
     Ok((mesh, particles, cuts))
 }
 
@@ -323,9 +309,9 @@ pub fn cylinder_drag(h: f64, form: WeakForm, opts: CutOptions) -> Result<DragRes
     // Stokes flow is linear in the driving force: solve with a unit body force, then scale to U = 1.
     let sol = st.solve(&|_| [1.0, 0.0])?;
     let q = st.mesh.flux_through_first_column(&sol.u);
-    let scale = 4.0 / q; // Q = U H with U = 1, H = 4
-                         // The body force f stands for a mean pressure gradient −f e_x: the true pressure is the
-                         // periodic one minus f x, whose traction on the cylinder adds f·πR² to the drag.
+    let scale = CylinderChannel::BENCHMARK.flow_rate() / q;
+    // The body force f stands for a mean pressure gradient −f e_x: the true pressure is the
+    // periodic one minus f x, whose traction on the cylinder adds f·πR² to the drag.
     let buoyancy = std::f64::consts::PI;
     Ok(DragResult {
         h,
@@ -428,7 +414,7 @@ pub fn cylinder_drag_viscoelastic(
     flow.set_velocity(Side::Bottom, |_| [0.0, 0.0]);
     flow.set_velocity(Side::Top, |_| [0.0, 0.0]);
     flow.pin_pressure();
-    flow.set_flow_rate(4.0)?;
+    flow.set_flow_rate(CylinderChannel::BENCHMARK.flow_rate())?;
     let mut history = Vec::new();
     let t0 = std::time::Instant::now();
     let summary = flow.run(&|_| [0.0, 0.0], true, |f, rep| {
@@ -452,7 +438,7 @@ pub fn cylinder_drag_viscoelastic(
     for k in 0..=200 {
         let th = std::f64::consts::PI * (1.0 - k as f64 / 200.0);
         let p = [
-            CYLINDER_X + ON_FLUID_SIDE * th.cos(),
+            CylinderChannel::BENCHMARK.center_x + ON_FLUID_SIDE * th.cos(),
             ON_FLUID_SIDE * th.sin(),
         ];
         if let Some(t) = flow.polymer_stress_at(p) {
@@ -460,9 +446,14 @@ pub fn cylinder_drag_viscoelastic(
         }
     }
     for k in 0..=300 {
-        let x = CYLINDER_X + ON_FLUID_SIDE + 14.0 * k as f64 / 300.0;
+        let x = CylinderChannel::BENCHMARK.center_x + ON_FLUID_SIDE + 14.0 * k as f64 / 300.0;
         if let Some(t) = flow.polymer_stress_at([x, 0.0]) {
-            tau_xx.push([std::f64::consts::PI + (x - CYLINDER_X - 1.0), x, 0.0, t.xx]);
+            tau_xx.push([
+                std::f64::consts::PI + (x - CylinderChannel::BENCHMARK.center_x - 1.0),
+                x,
+                0.0,
+                t.xx,
+            ]);
         }
     }
     Ok(ViscoDragResult {
