@@ -61,7 +61,7 @@ fn trajectory(mesh: [usize; 2], angle: f64) -> (Vec<Sample>, f64) {
     let mut out = vec![sample(&sim)];
     let start = Instant::now();
     let end = sim
-        .run(T_END, false, |sim, _| {
+        .run(T_END, |sim, _| {
             out.push(sample(sim));
             true
         })

@@ -43,7 +43,7 @@ fn couette_particle_at_vanishing_wi_follows_the_stokes_run() {
     .unwrap();
     let mut reference = vec![(0.0, g.r_star(x0), stokes.state().omega[0])];
     let end = stokes
-        .run(t_end, false, |s, _| {
+        .run(t_end, |s, _| {
             reference.push((s.time(), g.r_star(s.state().x[0]), s.state().omega[0]));
             true
         })
@@ -65,7 +65,7 @@ fn couette_particle_at_vanishing_wi_follows_the_stokes_run() {
     .unwrap();
     let mut moving = vec![(0.0, g.r_star(x0), sim.state().omega[0])];
     let end = sim
-        .run(t_end, false, |s, _| {
+        .run(t_end, |s, _| {
             moving.push((s.time(), g.r_star(s.state().x[0]), s.state().omega[0]));
             true
         })

@@ -7,13 +7,13 @@
 use serde::Serialize;
 
 use crate::config::{CaseSpec, Geometry, HistoryRemap, InterfaceRule, StressCoupling};
+use crate::observe::outcome::STEADY_OMEGA_TOL;
 use crate::particles::CONTACT_OVERLAP;
 use crate::solver::ale::Remap;
 use crate::solver::constitutive::GHOST_PENALTY;
 use crate::solver::constitutive_projection::PROJECTION_GHOST_PENALTY;
 use crate::solver::constitutive_stress::Coupling;
 use crate::solver::flow::FLOW_GHOST_PENALTY;
-use crate::solver::moving::STEADY_ROTATION_TOL;
 use crate::solver::viscoelastic::ViscoelasticParams;
 use crate::xfem::{CutOptions, InterfaceApprox};
 
@@ -38,7 +38,8 @@ pub struct Settings {
     pub frame: FrameSettings,
     /// Contact: particles closer than −overlap × a (a small overlap) touch.
     pub contact_overlap: f64,
-    /// Steady rotation (thesis §5.7.2): |ω*(tⁿ⁺¹) − ω*(tⁿ)| below this for every particle.
+    /// Steady rotation (thesis §5.7.2, decided by `observe::outcome`): |ω*(tⁿ⁺¹) − ω*(tⁿ)|
+    /// below this for every particle.
     pub steady_rotation_tol: f64,
 }
 
@@ -257,7 +258,7 @@ impl Settings {
             },
             frame: FrameSettings { velocity, rotation },
             contact_overlap: CONTACT_OVERLAP,
-            steady_rotation_tol: STEADY_ROTATION_TOL,
+            steady_rotation_tol: STEADY_OMEGA_TOL,
         }
     }
 

@@ -5,7 +5,8 @@
 //! predicted configuration, mesh velocity of Eq. 5.44) → classify (cut cells at the predicted
 //! positions) → solve_flow (u, p, U_i, ω_i with force- and torque-free particles imposed weakly,
 //! Eq. 5.48) → solve_stress (SUPG/BDF2 with u − u_m, Eq. 5.52) → correct (trapezoidal rule,
-//! Eqs. 5.54–5.56) → observe (contact, divergence, steady rotation of §5.7.2).
+//! Eqs. 5.54–5.56) → observe (contact; divergence is a non-finite correction, the steady rotation of §5.7.2 is
+//! decided by `observe::outcome`).
 //!
 //! The confinement (walls, period, contact) is a [`Confinement`] of `crate::geometry`. A fluid
 //! without polymer (η_p = 0) runs the same pipeline without the ALE map and the stress solve:
@@ -26,9 +27,6 @@ use crate::solver::viscoelastic::{
 };
 use crate::xfem::CutOptions;
 
-/// Steady rotation of §5.7.2: |ω*(tⁿ⁺¹) − ω*(tⁿ)| below this for every particle.
-pub const STEADY_ROTATION_TOL: f64 = 1e-6;
-
 /// Prescribes the confinement's wall velocities on the flow's bottom and top sides and pins the
 /// pressure (every confinement encloses its flow).
 pub fn apply_walls<D: Confinement + Clone + 'static>(domain: &D, flow: &mut ViscoelasticFlow) {
@@ -44,8 +42,6 @@ pub fn apply_walls<D: Confinement + Clone + 'static>(domain: &D, flow: &mut Visc
 pub enum MovingEnd {
     /// End time reached.
     EndTime,
-    /// Every particle rotates steadily (§5.7.2) and the caller asked to stop there.
-    Steady,
     /// The step callback asked to stop.
     Stopped,
     /// Particles touched each other or a wall.
@@ -146,10 +142,6 @@ pub struct MovingTimings {
 pub struct MovingReport {
     /// The fluid step.
     pub flow: StepReport,
-    /// max over particles of |ω*(tⁿ⁺¹) − ω*(tⁿ)|.
-    pub d_omega_star: f64,
-    /// All particles rotate steadily.
-    pub steady: bool,
     /// Timings of the particle phases.
     pub timings: MovingTimings,
 }
@@ -332,14 +324,9 @@ impl<D: Confinement + Clone + 'static> MovingParticles<D> {
         timings.ale += t0.elapsed().as_secs_f64();
         let solution = self.solve_flow()?;
         let flow = self.solve_stress(solution)?;
-        let d_omega_star = self.correct(x_pred, step)?;
+        self.correct(x_pred, step)?;
         timings.total = t_step.elapsed().as_secs_f64();
-        let report = MovingReport {
-            flow,
-            d_omega_star,
-            steady: d_omega_star < STEADY_ROTATION_TOL,
-            timings,
-        };
+        let report = MovingReport { flow, timings };
         Ok(match self.observe() {
             Some(c) => StepOutcome::ContactAfter(report, c),
             None => StepOutcome::Stepped(report),
@@ -426,9 +413,8 @@ impl<D: Confinement + Clone + 'static> MovingParticles<D> {
         Ok(self.flow.solve_stress(solution)?)
     }
 
-    /// Step 6, correct: Xⁿ⁺¹ by the trapezoidal rule (Eqs. 5.54–5.56); returns
-    /// max |ω*(tⁿ⁺¹) − ω*(tⁿ)| over the particles.
-    fn correct(&mut self, x_pred: Vec<[f64; 2]>, step: usize) -> Result<f64, MovingError> {
+    /// Step 6, correct: Xⁿ⁺¹ by the trapezoidal rule (Eqs. 5.54–5.56).
+    fn correct(&mut self, x_pred: Vec<[f64; 2]>, step: usize) -> Result<(), MovingError> {
         let rigid = self.flow.rigid_velocities();
         let u: Vec<[f64; 2]> = rigid.iter().map(|r| [r[0], r[1]]).collect();
         let omega: Vec<f64> = rigid.iter().map(|r| r[2]).collect();
@@ -436,19 +422,9 @@ impl<D: Confinement + Clone + 'static> MovingParticles<D> {
         if !finite(&next) {
             return Err(MovingError::NonFinite { step });
         }
-        // γ̇ = 0 (a body pushed through fluid at rest): ω in the units of the problem
-        let rate = Some(self.domain.shear_rate())
-            .filter(|r| *r > 0.0)
-            .unwrap_or(1.0);
-        let d_omega_star = next
-            .omega
-            .iter()
-            .zip(&self.cur.omega)
-            .map(|(a, b)| (a - b).abs() / rate)
-            .fold(0.0, f64::max);
         self.prev = Some(std::mem::replace(&mut self.cur, next));
         self.fields_at = x_pred;
-        Ok(d_omega_star)
+        Ok(())
     }
 
     /// Step 7, observe: contact of the corrected particles with each other or a wall.
@@ -462,15 +438,15 @@ impl<D: Confinement + Clone + 'static> MovingParticles<D> {
         -CONTACT_OVERLAP * self.radius.iter().copied().fold(f64::INFINITY, f64::min)
     }
 
-    /// Steps until `t_end`, a contact, the steady rotation (if `stop_when_steady`) or until
-    /// `observe` returns false; `observe` sees every step taken.
+    /// Steps until `t_end`, a contact, or until `observe` returns false; `observe` sees every
+    /// step taken. (Whether a case has become steady is the observer's to decide:
+    /// `observe::outcome`.)
     ///
     /// # Errors
     /// As [`step`](Self::step).
     pub fn run(
         &mut self,
         t_end: f64,
-        stop_when_steady: bool,
         mut observe: impl FnMut(&Self, &MovingReport) -> bool,
     ) -> Result<MovingEnd, MovingError> {
         let n_steps = (t_end / self.dt - 1e-9).ceil() as usize;
@@ -487,9 +463,6 @@ impl<D: Confinement + Clone + 'static> MovingParticles<D> {
             };
             if !observe(self, &rep) {
                 return Ok(MovingEnd::Stopped);
-            }
-            if stop_when_steady && rep.steady {
-                return Ok(MovingEnd::Steady);
             }
         }
         Ok(MovingEnd::EndTime)

@@ -112,7 +112,7 @@ pub fn translating_cylinder(
     let mut k = vec![(0.0, 0.0)];
     // the output times kΔt ≤ λ (Δt = 0.04 does not divide λ = 0.5)
     let t_end = dt * (LAMBDA / dt + 1e-9).floor();
-    let end = sim.run(t_end, false, |s, _| {
+    let end = sim.run(t_end, |s, _| {
         k.push((s.time(), s.flow().polymer_forces()[0][0]));
         true
     })?;
