@@ -246,7 +246,7 @@ pub fn moving(
             }
         }
     }
-    let med = |f: &dyn Fn(&crate::solver::moving::MovingReport) -> f64| {
+    let med = |f: &dyn Fn(&crate::solver::viscoelastic::StepReport) -> f64| {
         median(reports.iter().map(f).collect())
     };
     Ok(MovingBench {
@@ -259,15 +259,15 @@ pub fn moving(
         steps,
         ale: med(&|r| r.timings.ale),
         classify: med(&|r| r.timings.classify),
-        flow_assembly: med(&|r| r.flow.timings.flow_assembly),
-        flow_symbolic: med(&|r| r.flow.timings.flow_symbolic),
-        flow_factor: med(&|r| r.flow.timings.flow_factor),
-        flow_solve: med(&|r| r.flow.timings.flow_solve),
-        gradient_projection: med(&|r| r.flow.timings.gradient_projection),
-        transport_assembly: med(&|r| r.flow.timings.transport.assembly),
-        transport_factor: med(&|r| r.flow.timings.transport.factor),
-        transport_solve: med(&|r| r.flow.timings.transport.solve),
-        conformation_projection: med(&|r| r.flow.timings.conformation_projection),
+        flow_assembly: med(&|r| r.timings.flow_assembly),
+        flow_symbolic: med(&|r| r.timings.flow_symbolic),
+        flow_factor: med(&|r| r.timings.flow_factor),
+        flow_solve: med(&|r| r.timings.flow_solve),
+        gradient_projection: med(&|r| r.timings.gradient_projection),
+        transport_assembly: med(&|r| r.timings.transport.assembly),
+        transport_factor: med(&|r| r.timings.transport.factor),
+        transport_solve: med(&|r| r.timings.transport.solve),
+        conformation_projection: med(&|r| r.timings.conformation_projection),
         total: med(&|r| r.timings.total),
         pattern_rebuilds: sim.stepper().flow().pattern_rebuilds(),
         flow_factorizations: sim.stepper().flow().flow_refactorizations(),

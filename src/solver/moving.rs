@@ -125,36 +125,15 @@ impl From<FollowingMesh> for ComputationalMesh {
     }
 }
 
-/// Wall-clock seconds of the particle-specific phases of one step (the flow and stress phases
-/// are in [`StepReport::timings`]).
-#[derive(Debug, Clone, Copy, Default)]
-pub struct MovingTimings {
-    /// Mesh displacement, point location and mapping of the history.
-    pub ale: f64,
-    /// Level set and cut-cell quadrature at the predicted positions.
-    pub classify: f64,
-    /// Whole step.
-    pub total: f64,
-}
-
-/// What one step did.
-#[derive(Debug, Clone)]
-pub struct MovingReport {
-    /// The fluid step.
-    pub flow: StepReport,
-    /// Timings of the particle phases.
-    pub timings: MovingTimings,
-}
-
 /// How a step ended: contact is an outcome of the physics, not an error.
 #[derive(Debug, Clone)]
 pub enum StepOutcome {
     /// The step was taken.
-    Stepped(MovingReport),
+    Stepped(StepReport),
     /// The predicted particles would touch: the step was not taken.
     Contact(Contact),
     /// The step was taken and the corrected particles touch.
-    ContactAfter(MovingReport, Contact),
+    ContactAfter(StepReport, Contact),
 }
 
 impl StepOutcome {
@@ -162,7 +141,7 @@ impl StepOutcome {
     ///
     /// # Errors
     /// The contact, predicted or after the step.
-    pub fn into_report(self) -> Result<MovingReport, Contact> {
+    pub fn into_report(self) -> Result<StepReport, Contact> {
         match self {
             StepOutcome::Stepped(r) => Ok(r),
             StepOutcome::Contact(c) | StepOutcome::ContactAfter(_, c) => Err(c),
@@ -309,10 +288,13 @@ impl<D: Confinement + Clone + 'static> MovingParticles<D> {
         if let Some(c) = self.domain.contact(&x_pred, &self.radius, self.min_gap()) {
             return Ok(StepOutcome::Contact(c));
         }
-        let mut timings = MovingTimings::default();
-        let (onto, map) = self.ale_map(&x_pred, step, &mut timings)?;
+        let t0 = Instant::now();
+        let (onto, map) = self.ale_map(&x_pred, step)?;
+        let mut ale = t0.elapsed().as_secs_f64();
+        let t0 = Instant::now();
         let target = onto.as_ref().unwrap_or(self.flow.mesh());
-        let (particles, cuts) = self.classify(target, &x_pred, step, &mut timings)?;
+        let (particles, cuts) = self.classify(target, &x_pred, step)?;
+        let classify = t0.elapsed().as_secs_f64();
         let t0 = Instant::now();
         let history = map.as_ref().map(|m| HistoryMap {
             at_n: &m.at_n,
@@ -321,12 +303,13 @@ impl<D: Confinement + Clone + 'static> MovingParticles<D> {
         });
         self.flow
             .move_particles_onto(onto, particles, cuts, history)?;
-        timings.ale += t0.elapsed().as_secs_f64();
+        ale += t0.elapsed().as_secs_f64();
         let solution = self.solve_flow()?;
-        let flow = self.solve_stress(solution)?;
+        let mut report = self.solve_stress(solution)?;
         self.correct(x_pred, step)?;
-        timings.total = t_step.elapsed().as_secs_f64();
-        let report = MovingReport { flow, timings };
+        report.timings.ale = ale;
+        report.timings.classify = classify;
+        report.timings.total = t_step.elapsed().as_secs_f64();
         Ok(match self.observe() {
             Some(c) => StepOutcome::ContactAfter(report, c),
             None => StepOutcome::Stepped(report),
@@ -346,9 +329,7 @@ impl<D: Confinement + Clone + 'static> MovingParticles<D> {
         &mut self,
         x_pred: &[[f64; 2]],
         step: usize,
-        timings: &mut MovingTimings,
     ) -> Result<(Option<Mesh>, Option<AleMap>), MovingError> {
-        let t0 = Instant::now();
         let onto = match &self.follow {
             Some(f) => Some(
                 f.mesh_at(x_pred)
@@ -383,7 +364,6 @@ impl<D: Confinement + Clone + 'static> MovingParticles<D> {
                 first_order,
             )
             .map_err(|source| MovingError::Ale { step, source })?;
-        timings.ale = t0.elapsed().as_secs_f64();
         Ok((onto, Some(map)))
     }
 
@@ -393,13 +373,10 @@ impl<D: Confinement + Clone + 'static> MovingParticles<D> {
         mesh: &Mesh,
         x_pred: &[[f64; 2]],
         step: usize,
-        timings: &mut MovingTimings,
     ) -> Result<(Vec<Particle>, Vec<ElementCut>), MovingError> {
-        let t0 = Instant::now();
         let particles = make_particles(&self.domain, x_pred, &self.radius, &self.motion);
         let cuts = compute_cuts(mesh, &particles, self.domain.period(), self.cut)
             .map_err(|source| MovingError::Cut { step, source })?;
-        timings.classify = t0.elapsed().as_secs_f64();
         Ok((particles, cuts))
     }
 
@@ -447,7 +424,7 @@ impl<D: Confinement + Clone + 'static> MovingParticles<D> {
     pub fn run(
         &mut self,
         t_end: f64,
-        mut observe: impl FnMut(&Self, &MovingReport) -> bool,
+        mut observe: impl FnMut(&Self, &StepReport) -> bool,
     ) -> Result<MovingEnd, MovingError> {
         let n_steps = (t_end / self.dt - 1e-9).ceil() as usize;
         while self.flow.history().steps() < n_steps {

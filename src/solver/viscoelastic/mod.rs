@@ -44,9 +44,14 @@ use crate::solver::flow::{Stokes, StokesParams};
 use crate::solver::polymer_terms::PolymerStress;
 use crate::solver::rigid::{ElementCut, Particle, WeakForm};
 
-/// Wall-clock seconds of the phases of one step.
+/// Wall-clock seconds of the phases of one step (the one timing record of a step: a step with
+/// moving particles fills in its ALE and classify phases too).
 #[derive(Debug, Clone, Copy, Default)]
 pub struct StepTimings {
+    /// Moving particles: following mesh, ALE displacement, point location, history mapping.
+    pub ale: f64,
+    /// Moving particles: level set and cut-cell quadrature at the predicted positions.
+    pub classify: f64,
     /// Flow: assembly.
     pub flow_assembly: f64,
     /// Flow: symbolic analysis (first solve only).
@@ -466,6 +471,8 @@ impl ViscoelasticFlow {
             ds_vertex,
             steady: du_max < tol && ds_max < tol,
             timings: StepTimings {
+                ale: 0.0,
+                classify: 0.0,
                 flow_assembly: ft.assembly,
                 flow_symbolic: ft.symbolic,
                 flow_factor: ft.numeric,
