@@ -137,30 +137,8 @@ pub struct MovingBench {
     pub unknowns: (usize, usize),
     /// Steps timed (after the warm-up steps).
     pub steps: usize,
-    /// Median seconds: temporary ALE map.
-    pub ale: f64,
-    /// Median seconds: level set and cut-cell quadrature.
-    pub classify: f64,
-    /// Median seconds: flow assembly.
-    pub flow_assembly: f64,
-    /// Median seconds: flow symbolic analysis (pattern changes only).
-    pub flow_symbolic: f64,
-    /// Median seconds: flow numeric factorization.
-    pub flow_factor: f64,
-    /// Median seconds: flow solve.
-    pub flow_solve: f64,
-    /// Median seconds: projection of the velocity gradient.
-    pub gradient_projection: f64,
-    /// Median seconds: log-conformation assembly.
-    pub transport_assembly: f64,
-    /// Median seconds: log-conformation factorization.
-    pub transport_factor: f64,
-    /// Median seconds: log-conformation solves (three components).
-    pub transport_solve: f64,
-    /// Median seconds: projection of c = exp(s).
-    pub conformation_projection: f64,
-    /// Median seconds: the whole step.
-    pub total: f64,
+    /// Median seconds of each phase over the timed steps (each phase's own median).
+    pub median: crate::solver::viscoelastic::StepTimings,
     /// Flow-matrix pattern rebuilds over the run (warm-up included).
     pub pattern_rebuilds: usize,
     /// Numeric flow factorizations over the run (warm-up and the initial solve included).
@@ -246,8 +224,8 @@ pub fn moving(
             }
         }
     }
-    let med = |f: &dyn Fn(&crate::solver::viscoelastic::StepReport) -> f64| {
-        median(reports.iter().map(f).collect())
+    let med = |f: &dyn Fn(&crate::solver::viscoelastic::StepTimings) -> f64| {
+        median(reports.iter().map(|r| f(&r.timings)).collect())
     };
     Ok(MovingBench {
         mesh: match follow {
@@ -257,18 +235,23 @@ pub fn moving(
         particles: n,
         unknowns: sim.stepper().flow().sizes(),
         steps,
-        ale: med(&|r| r.timings.ale),
-        classify: med(&|r| r.timings.classify),
-        flow_assembly: med(&|r| r.timings.flow_assembly),
-        flow_symbolic: med(&|r| r.timings.flow_symbolic),
-        flow_factor: med(&|r| r.timings.flow_factor),
-        flow_solve: med(&|r| r.timings.flow_solve),
-        gradient_projection: med(&|r| r.timings.gradient_projection),
-        transport_assembly: med(&|r| r.timings.transport.assembly),
-        transport_factor: med(&|r| r.timings.transport.factor),
-        transport_solve: med(&|r| r.timings.transport.solve),
-        conformation_projection: med(&|r| r.timings.conformation_projection),
-        total: med(&|r| r.timings.total),
+        median: crate::solver::viscoelastic::StepTimings {
+            ale: med(&|t| t.ale),
+            classify: med(&|t| t.classify),
+            flow_assembly: med(&|t| t.flow_assembly),
+            flow_symbolic: med(&|t| t.flow_symbolic),
+            flow_factor: med(&|t| t.flow_factor),
+            flow_solve: med(&|t| t.flow_solve),
+            gradient_projection: med(&|t| t.gradient_projection),
+            transport: crate::solver::constitutive::TransportTimings {
+                assembly: med(&|t| t.transport.assembly),
+                symbolic: med(&|t| t.transport.symbolic),
+                factor: med(&|t| t.transport.factor),
+                solve: med(&|t| t.transport.solve),
+            },
+            conformation_projection: med(&|t| t.conformation_projection),
+            total: med(&|t| t.total),
+        },
         pattern_rebuilds: sim.stepper().flow().pattern_rebuilds(),
         flow_factorizations: sim.stepper().flow().flow_refactorizations(),
         run_steps: warm_up + steps,
@@ -288,18 +271,18 @@ impl MovingBench {
             self.particles,
             self.unknowns.0,
             self.unknowns.1,
-            self.ale,
-            self.classify,
-            self.flow_assembly,
-            self.flow_symbolic,
-            self.flow_factor,
-            self.flow_solve,
-            self.gradient_projection,
-            self.transport_assembly,
-            self.transport_factor,
-            self.transport_solve,
-            self.conformation_projection,
-            self.total,
+            self.median.ale,
+            self.median.classify,
+            self.median.flow_assembly,
+            self.median.flow_symbolic,
+            self.median.flow_factor,
+            self.median.flow_solve,
+            self.median.gradient_projection,
+            self.median.transport.assembly,
+            self.median.transport.factor,
+            self.median.transport.solve,
+            self.median.conformation_projection,
+            self.median.total,
             self.pattern_rebuilds,
             self.run_steps,
             self.flow_factorizations,
