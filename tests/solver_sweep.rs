@@ -56,6 +56,13 @@ particles.layout.pair.ly = [0.06, 0.08]
         )
         .unwrap();
     assert_eq!(done, 2);
+    // every result carries the settings it ran with (the default cut rule here)
+    let settings: String = c
+        .query_row("SELECT settings_json FROM cases LIMIT 1", [], |r| r.get(0))
+        .unwrap();
+    let settings: serde_json::Value = serde_json::from_str(&settings).unwrap();
+    assert_eq!(settings["cut"]["interface"], "parabolic");
+    assert_eq!(settings["flow"]["stress_coupling"], "none (Stokes flow)");
     // steps 0..=3, two particles, two cases
     let samples: i64 = c
         .query_row("SELECT count(*) FROM samples", [], |r| r.get(0))

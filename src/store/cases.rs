@@ -35,6 +35,8 @@ pub struct CaseRecord {
     pub t_reached: f64,
     /// The run that produced it.
     pub run_id: i64,
+    /// The resolved numerical settings it ran with (JSON), if the runner reports them.
+    pub settings: Option<String>,
 }
 
 /// Per-sweep case counts for `xpflow status`.
@@ -382,9 +384,19 @@ impl Store {
         };
         tx.execute(
             "UPDATE cases SET status = ?2, finished_at = strftime('%Y-%m-%dT%H:%M:%fZ', 'now'), wall_s = ?3,
-                steps = ?4, t_reached = ?5, run_id = ?6, error = ?7, owner = NULL, owner_pid = NULL
+                steps = ?4, t_reached = ?5, run_id = ?6, error = ?7, owner = NULL, owner_pid = NULL,
+                settings_json = ?8
              WHERE id = ?1",
-            params![case_id, status, rec.wall_s, rec.steps as i64, rec.t_reached, rec.run_id, rec.error],
+            params![
+                case_id,
+                status,
+                rec.wall_s,
+                rec.steps as i64,
+                rec.t_reached,
+                rec.run_id,
+                rec.error,
+                rec.settings
+            ],
         )
         .map_err(&err)?;
         tx.commit().map_err(err)

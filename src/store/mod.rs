@@ -219,3 +219,42 @@ impl Store {
             .map_err(self.sql_err())
     }
 }
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    /// A version-1 database (no `cases.settings_json`) is migrated on open: the column is there
+    /// and the version is the current one.
+    #[test]
+    fn a_version_1_database_gains_the_settings_column() {
+        let dir = std::env::temp_dir().join(format!("xpflow-migrate-{}", std::process::id()));
+        std::fs::create_dir_all(&dir).unwrap();
+        let path = dir.join("v1.db");
+        std::fs::remove_file(&path).ok();
+        {
+            let conn = Connection::open(&path).unwrap();
+            let v1 = schema::CREATE.replace(",\n    settings_json TEXT", "");
+            assert_ne!(v1, schema::CREATE, "the v1 schema differs by the column");
+            conn.execute_batch(&v1).unwrap();
+            conn.execute("INSERT INTO schema_version (version) VALUES (1)", [])
+                .unwrap();
+        }
+        let store = Store::open(&path).unwrap();
+        let version: i64 = store
+            .connection()
+            .query_row("SELECT MAX(version) FROM schema_version", [], |r| r.get(0))
+            .unwrap();
+        assert_eq!(version, schema::SCHEMA_VERSION);
+        let has_column: i64 = store
+            .connection()
+            .query_row(
+                "SELECT COUNT(*) FROM pragma_table_info('cases') WHERE name = 'settings_json'",
+                [],
+                |r| r.get(0),
+            )
+            .unwrap();
+        assert_eq!(has_column, 1);
+        std::fs::remove_dir_all(&dir).ok();
+    }
+}

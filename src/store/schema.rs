@@ -4,7 +4,7 @@
 //! `steps`, `t_reached`, `run_id`. Views: `case_outcomes`, `string_formation`.
 
 /// Bumped whenever the schema changes; an older database is migrated by [`MIGRATIONS`].
-pub const SCHEMA_VERSION: i64 = 1;
+pub const SCHEMA_VERSION: i64 = 2;
 
 /// Statements creating version 1 from nothing (all idempotent).
 pub const CREATE: &str = r#"
@@ -42,7 +42,8 @@ CREATE TABLE IF NOT EXISTS cases (
     owner TEXT, owner_pid INTEGER,
     started_at TEXT, finished_at TEXT, wall_s REAL, steps INTEGER, t_reached REAL,
     run_id INTEGER REFERENCES runs(id),
-    error TEXT
+    error TEXT,
+    settings_json TEXT
 );
 CREATE INDEX IF NOT EXISTS cases_by_status ON cases(status);
 CREATE INDEX IF NOT EXISTS cases_by_wi_n ON cases(wi, n_particles);
@@ -80,5 +81,7 @@ CREATE VIEW IF NOT EXISTS string_formation AS
     GROUP BY c.wi, c.n_particles, c.alpha, c.beta, c.delta;
 "#;
 
-/// Migrations from version i to i + 1, applied in order (none yet).
-pub const MIGRATIONS: &[&str] = &[];
+/// Migrations from version i to i + 1, applied in order. 1 → 2: `cases.settings_json`, the
+/// resolved numerical settings a case ran with (`simulate::Settings`; the code version is the
+/// run's).
+pub const MIGRATIONS: &[&str] = &["ALTER TABLE cases ADD COLUMN settings_json TEXT;"];

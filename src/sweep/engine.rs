@@ -323,6 +323,7 @@ fn run_one(
         steps,
         t_reached: t,
         run_id: ctx.run_id,
+        settings: ctx.runner.settings(&case.spec).map(|v| v.to_string()),
     };
     store.finish_case(case_id, &record)?;
     // a finished case (whatever its outcome) is never resumed

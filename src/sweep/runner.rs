@@ -15,6 +15,10 @@ pub trait CaseRunner: Sync {
     fn supports(&self, case: &CaseSpec) -> Result<(), String>;
     /// Simulates `case`, reporting to `obs`.
     fn run(&self, case: &CaseSpec, obs: &mut dyn CaseObserver) -> CaseResult;
+    /// The resolved numerical settings `case` runs with, stored with its result (none by default).
+    fn settings(&self, _case: &CaseSpec) -> Option<serde_json::Value> {
+        None
+    }
 }
 
 /// The runner the CLI uses: the solver-backed one.

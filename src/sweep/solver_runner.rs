@@ -3,7 +3,7 @@
 
 use crate::config::CaseSpec;
 use crate::observe::CaseObserver;
-use crate::simulate::{run::run_case, Simulation};
+use crate::simulate::{run::run_case, Settings, Simulation};
 use crate::sweep::runner::{CaseResult, CaseRunner};
 
 /// Runs cases with the XFEM solver.
@@ -17,5 +17,9 @@ impl CaseRunner for SolverRunner {
 
     fn run(&self, case: &CaseSpec, obs: &mut dyn CaseObserver) -> CaseResult {
         run_case(case, obs)
+    }
+
+    fn settings(&self, case: &CaseSpec) -> Option<serde_json::Value> {
+        serde_json::to_value(Settings::of(case)).ok()
     }
 }
