@@ -265,7 +265,7 @@ impl Settings {
     /// The settings as TOML, one table per group (what `--resolved` prints).
     pub fn to_toml(&self) -> String {
         // serializing plain numbers, strings and tables cannot fail
-        toml::to_string_pretty(self).unwrap_or_default()
+        toml::to_string(self).unwrap_or_default()
     }
 }
 
