@@ -97,6 +97,41 @@ pub fn machine() -> String {
     )
 }
 
+/// Whether an SQLite error is SQLITE_BUSY.
+fn is_busy(e: &rusqlite::Error) -> bool {
+    matches!(e, rusqlite::Error::SqliteFailure(f, _) if f.code == rusqlite::ErrorCode::DatabaseBusy)
+}
+
+/// Retries `f` while it fails with SQLITE_BUSY, for up to [`BUSY_TIMEOUT`] (for the statements
+/// SQLite answers with BUSY without waiting: the journal-mode switch and the schema set-up of a
+/// database that another connection is creating at the same moment).
+fn retry_busy<T>(mut f: impl FnMut() -> rusqlite::Result<T>) -> rusqlite::Result<T> {
+    let deadline = std::time::Instant::now() + BUSY_TIMEOUT;
+    loop {
+        match f() {
+            Err(e) if is_busy(&e) && std::time::Instant::now() < deadline => {
+                std::thread::sleep(Duration::from_millis(10))
+            }
+            r => return r,
+        }
+    }
+}
+
+/// [`retry_busy`] for an operation that wraps its SQLite errors.
+fn retry_busy_store<T>(mut f: impl FnMut() -> Result<T>) -> Result<T> {
+    let deadline = std::time::Instant::now() + BUSY_TIMEOUT;
+    loop {
+        match f() {
+            Err(StoreError::Sql { source, .. })
+                if is_busy(&source) && std::time::Instant::now() < deadline =>
+            {
+                std::thread::sleep(Duration::from_millis(10))
+            }
+            r => return r,
+        }
+    }
+}
+
 /// A connection to a results database. Not shared between threads: open one per thread.
 pub struct Store {
     conn: Connection,
@@ -119,9 +154,11 @@ impl Store {
         };
         let conn = Connection::open(path).map_err(sql)?;
         conn.busy_timeout(BUSY_TIMEOUT).map_err(sql)?;
-        let mode: String = conn
-            .query_row("PRAGMA journal_mode = WAL", [], |r| r.get(0))
-            .map_err(sql)?;
+        // switching a new file to WAL needs an exclusive lock and may return SQLITE_BUSY at
+        // once, without the busy handler, while another process creates the same database
+        let mode: String =
+            retry_busy(|| conn.query_row("PRAGMA journal_mode = WAL", [], |r| r.get(0)))
+                .map_err(sql)?;
         debug_assert!(mode.eq_ignore_ascii_case("wal") || path.as_os_str() == ":memory:");
         conn.pragma_update(None, "synchronous", "NORMAL")
             .map_err(sql)?;
@@ -131,7 +168,7 @@ impl Store {
             conn,
             path: path.to_path_buf(),
         };
-        store.migrate()?;
+        retry_busy_store(|| store.migrate())?;
         Ok(store)
     }
 
