@@ -58,6 +58,7 @@ const CHECKPOINT_EVERY: u64 = 50;
 pub fn run_case(case: &CaseSpec, obs: &mut dyn CaseObserver) -> CaseResult {
     let mut sim = match Simulation::new(case) {
         Ok(sim) => sim,
+        // (the initial solve is step 0)
         Err(SetupError::Solver(e)) => return ended_by(e, 0, 0.0),
         Err(e) => return CaseResult::failed(e.to_string()),
     };
@@ -80,7 +81,7 @@ pub fn run_case(case: &CaseSpec, obs: &mut dyn CaseObserver) -> CaseResult {
     let n_steps = sim.settings().time.steps as u64;
     while sim.steps() < n_steps {
         let contact = match sim.step() {
-            Err(e) => return ended_by(e, sim.steps() + 1, sim.time()),
+            Err(e) => return ended_by(e, sim.steps(), sim.time()),
             Ok(StepOutcome::Contact(_)) => return finished(&sim),
             Ok(StepOutcome::Stepped(_)) => false,
             Ok(StepOutcome::ContactAfter(..)) => true,
@@ -111,23 +112,19 @@ fn finished(sim: &Simulation) -> CaseResult {
     }
 }
 
-/// The end of a run by an error of `step`: divergence for a non-finite state, otherwise a
-/// failure naming the step and the phase.
-fn ended_by(e: MovingError, step: u64, t: f64) -> CaseResult {
+/// The end of a run by an error of the step after `steps` completed ones: divergence for a
+/// non-finite state, otherwise a failure naming the step and the phase.
+fn ended_by(e: MovingError, steps: u64, t: f64) -> CaseResult {
     let status = if diverged(&e) {
         RunStatus::Diverged {
             reason: e.to_string(),
         }
     } else {
         RunStatus::Failed {
-            error: format!("step {step}, {}: {e}", e.phase()),
+            error: format!("step {}, {}: {e}", steps + 1, e.phase()),
         }
     };
-    CaseResult {
-        status,
-        steps: step.saturating_sub(1),
-        t,
-    }
+    CaseResult { status, steps, t }
 }
 
 /// Whether an error is a non-finite state of the physics (particle velocities, the
@@ -146,4 +143,43 @@ fn diverged(e: &MovingError) -> bool {
                 ConstitutiveError::NonFinite { .. }
             ))
     )
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+    use crate::fem::linsolve::SolveError;
+    use crate::solver::constitutive::ConstitutiveError;
+
+    /// Non-finite states are divergence (physics); a failed solve is a failure that names its
+    /// step, phase and residual.
+    #[test]
+    fn a_failed_solve_is_a_failure_and_a_non_finite_state_divergence() {
+        let blown = ended_by(MovingError::NonFinite { step: 8 }, 7, 0.7);
+        assert!(
+            matches!(blown.status, RunStatus::Diverged { .. }),
+            "{blown:?}"
+        );
+        let stress = MovingError::Flow(ViscoelasticError::Stress(ConstitutiveError::NonFinite {
+            step: 8,
+            vertex: 3,
+        }));
+        assert!(matches!(
+            ended_by(stress, 7, 0.7).status,
+            RunStatus::Diverged { .. }
+        ));
+        let solve = MovingError::Flow(ViscoelasticError::Flow {
+            step: 8,
+            source: SolveError::Inaccurate { residual: 3.2e-3 },
+        });
+        let r = ended_by(solve, 7, 0.7);
+        assert_eq!((r.steps, r.t), (7, 0.7));
+        match r.status {
+            RunStatus::Failed { error } => {
+                assert!(error.starts_with("step 8, solve_flow:"), "{error}");
+                assert!(error.contains("3.200e-3"), "{error}");
+            }
+            s => panic!("a failed solve is not physics: {s:?}"),
+        }
+    }
 }

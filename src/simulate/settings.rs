@@ -14,6 +14,7 @@ use crate::solver::constitutive::GHOST_PENALTY;
 use crate::solver::constitutive_projection::PROJECTION_GHOST_PENALTY;
 use crate::solver::constitutive_stress::Coupling;
 use crate::solver::flow::FLOW_GHOST_PENALTY;
+use crate::solver::moving::step_count;
 use crate::solver::viscoelastic::ViscoelasticParams;
 use crate::xfem::{CutOptions, InterfaceApprox};
 
@@ -226,7 +227,7 @@ impl Settings {
             time: TimeSettings {
                 dt: n.dt,
                 t_end: n.t_end,
-                steps: (n.t_end / n.dt - 1e-9).ceil() as usize,
+                steps: step_count(n.t_end, n.dt),
                 scheme: if polymer {
                     "BDF2 (Euler first step), predictor-corrector particles"
                 } else {

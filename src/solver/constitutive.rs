@@ -111,6 +111,12 @@ impl LogConformationHistory {
         self.previous = Some(std::mem::replace(&mut self.current, next));
         self.steps += 1;
     }
+
+    /// Ends a step in which `s` did not change (a fluid without polymer: s = 0 throughout), without
+    /// copying the fields.
+    pub fn push_unchanged(&mut self) {
+        self.steps += 1;
+    }
 }
 
 /// The flow seen by the transport step, all at `t^{n+1}`.

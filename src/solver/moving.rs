@@ -27,6 +27,12 @@ use crate::solver::viscoelastic::{
 };
 use crate::xfem::CutOptions;
 
+/// Steps of size `dt` to reach `t_end` (the end time counts as reached within round-off of
+/// t_end/dt).
+pub fn step_count(t_end: f64, dt: f64) -> usize {
+    (t_end / dt - 1e-9).ceil() as usize
+}
+
 /// Prescribes the confinement's wall velocities on the flow's bottom and top sides and pins the
 /// pressure (every confinement encloses its flow).
 pub fn apply_walls<D: Confinement + Clone + 'static>(domain: &D, flow: &mut ViscoelasticFlow) {
@@ -426,7 +432,7 @@ impl<D: Confinement + Clone + 'static> MovingParticles<D> {
         t_end: f64,
         mut observe: impl FnMut(&Self, &StepReport) -> bool,
     ) -> Result<MovingEnd, MovingError> {
-        let n_steps = (t_end / self.dt - 1e-9).ceil() as usize;
+        let n_steps = step_count(t_end, self.dt);
         while self.flow.history().steps() < n_steps {
             let rep = match self.step()? {
                 StepOutcome::Stepped(rep) => rep,

@@ -102,29 +102,17 @@ fn is_busy(e: &rusqlite::Error) -> bool {
     matches!(e, rusqlite::Error::SqliteFailure(f, _) if f.code == rusqlite::ErrorCode::DatabaseBusy)
 }
 
-/// Retries `f` while it fails with SQLITE_BUSY, for up to [`BUSY_TIMEOUT`] (for the statements
-/// SQLite answers with BUSY without waiting: the journal-mode switch and the schema set-up of a
-/// database that another connection is creating at the same moment).
-fn retry_busy<T>(mut f: impl FnMut() -> rusqlite::Result<T>) -> rusqlite::Result<T> {
+/// Retries `f` while its error is SQLITE_BUSY (`busy` tells), for up to [`BUSY_TIMEOUT`]: for
+/// the statements SQLite answers with BUSY without waiting (the journal-mode switch and the
+/// schema set-up of a database that another connection is creating at the same moment).
+fn retry_busy<T, E>(
+    busy: impl Fn(&E) -> bool,
+    mut f: impl FnMut() -> std::result::Result<T, E>,
+) -> std::result::Result<T, E> {
     let deadline = std::time::Instant::now() + BUSY_TIMEOUT;
     loop {
         match f() {
-            Err(e) if is_busy(&e) && std::time::Instant::now() < deadline => {
-                std::thread::sleep(Duration::from_millis(10))
-            }
-            r => return r,
-        }
-    }
-}
-
-/// [`retry_busy`] for an operation that wraps its SQLite errors.
-fn retry_busy_store<T>(mut f: impl FnMut() -> Result<T>) -> Result<T> {
-    let deadline = std::time::Instant::now() + BUSY_TIMEOUT;
-    loop {
-        match f() {
-            Err(StoreError::Sql { source, .. })
-                if is_busy(&source) && std::time::Instant::now() < deadline =>
-            {
+            Err(e) if busy(&e) && std::time::Instant::now() < deadline => {
                 std::thread::sleep(Duration::from_millis(10))
             }
             r => return r,
@@ -156,9 +144,10 @@ impl Store {
         conn.busy_timeout(BUSY_TIMEOUT).map_err(sql)?;
         // switching a new file to WAL needs an exclusive lock and may return SQLITE_BUSY at
         // once, without the busy handler, while another process creates the same database
-        let mode: String =
-            retry_busy(|| conn.query_row("PRAGMA journal_mode = WAL", [], |r| r.get(0)))
-                .map_err(sql)?;
+        let mode: String = retry_busy(is_busy, || {
+            conn.query_row("PRAGMA journal_mode = WAL", [], |r| r.get(0))
+        })
+        .map_err(sql)?;
         debug_assert!(mode.eq_ignore_ascii_case("wal") || path.as_os_str() == ":memory:");
         conn.pragma_update(None, "synchronous", "NORMAL")
             .map_err(sql)?;
@@ -168,7 +157,8 @@ impl Store {
             conn,
             path: path.to_path_buf(),
         };
-        retry_busy_store(|| store.migrate())?;
+        let busy = |e: &StoreError| matches!(e, StoreError::Sql { source, .. } if is_busy(source));
+        retry_busy(busy, || store.migrate())?;
         Ok(store)
     }
 

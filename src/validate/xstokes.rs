@@ -411,9 +411,7 @@ pub fn cylinder_drag_viscoelastic(
     let (mesh, particles, cuts) = cylinder_channel(h, opts)?;
     let params = ViscoelasticParams::new(0.59, 0.41, wi, 0.0, dt, t_max);
     let mut flow = ViscoelasticFlow::with_particles(mesh, params, particles, cuts)?;
-    flow.set_velocity(Side::Bottom, |_| [0.0, 0.0]);
-    flow.set_velocity(Side::Top, |_| [0.0, 0.0]);
-    flow.pin_pressure();
+    crate::solver::moving::apply_walls(&CylinderChannel::BENCHMARK, &mut flow);
     flow.set_flow_rate(CylinderChannel::BENCHMARK.flow_rate())?;
     let mut history = Vec::new();
     let t0 = std::time::Instant::now();

@@ -371,7 +371,7 @@ impl ViscoelasticFlow {
         let dt = self.params.dt;
         if !self.params.has_polymer() {
             // Stokes flow: s = 0 stays, only the step count advances
-            self.history.push(self.history.current.clone());
+            self.history.push_unchanged();
             return Ok(self.finish_step(step, u, p, 0.0, 0.0, t_step));
         }
         // 2. project_gradient
