@@ -72,6 +72,7 @@ pub fn stokes(
     let repeat = Timings {
         assembly: median(runs.iter().map(|r| r.assembly).collect()),
         symbolic: 0.0,
+        placement: median(runs.iter().map(|r| r.placement).collect()),
         numeric: median(runs.iter().map(|r| r.numeric).collect()),
         solve: median(runs.iter().map(|r| r.solve).collect()),
     };
@@ -87,6 +88,12 @@ pub fn stokes(
         repeat,
         peak_rss_mb: peak_rss_mb(),
     })
+}
+
+/// Resets the peak resident set size of this process to the current one (Linux: `5` written to
+/// `/proc/self/clear_refs`), so that [`peak_rss_mb`] measures what follows; false if it cannot.
+pub fn reset_peak_rss() -> bool {
+    std::fs::write("/proc/self/clear_refs", "5").is_ok()
 }
 
 /// Peak resident set size of this process in MB (Linux `VmHWM`).
@@ -143,6 +150,10 @@ pub struct MovingBench {
     pub pattern_rebuilds: usize,
     /// Numeric flow factorizations over the run (warm-up and the initial solve included).
     pub flow_factorizations: usize,
+    /// How the flow matrix was factored.
+    pub factorization: crate::fem::substructure::Factorization,
+    /// Placements of the band solver (far-field factorizations) over the run.
+    pub placements: usize,
     /// Steps of the run (warm-up included).
     pub run_steps: usize,
     /// Peak resident memory of the process (MB), if readable.
@@ -155,8 +166,8 @@ pub struct MovingBench {
 /// §5.7.2 for n = 3); explicit coupling with the lagged Gⁿ, or with G as flow unknowns if
 /// `coupled_g`; with `follow = Some(r)` on a mesh that follows the particles along x (columns r
 /// times finer within 1.5a, count kept out to 12a, as `sweeps/three_particles_follow.toml`);
-/// `cut` = (quadtree level, interface rule) if not the case default. Everything else is the
-/// case default.
+/// `cut` = (quadtree level, interface rule) if not the case default; the flow matrix factored as
+/// `factorization` says. Everything else is the case default.
 pub fn moving_case(
     nx: usize,
     ny: usize,
@@ -164,6 +175,7 @@ pub fn moving_case(
     coupled_g: bool,
     follow: Option<f64>,
     cut: Option<(u32, crate::config::InterfaceRule)>,
+    factorization: crate::fem::substructure::Factorization,
 ) -> Result<crate::config::CaseSpec, crate::config::SpecError> {
     let l = 4.0;
     let spacing = if n <= 7 { 0.5 } else { l / n as f64 };
@@ -182,6 +194,9 @@ pub fn moving_case(
         // (a unit variant always serializes)
         numerics["interface"] = serde_json::to_value(interface).unwrap_or_default();
     }
+    if !factorization.is_band() {
+        numerics["factorization"] = serde_json::to_value(factorization).unwrap_or_default();
+    }
     if let Some(ratio) = follow {
         numerics["follow"] =
             serde_json::json!({ "ratio": ratio, "ratio_y": 1.0, "core": 1.5, "reach": 12.0 });
@@ -195,7 +210,8 @@ pub fn moving_case(
 }
 
 /// One viscoelastic time step of [`moving_case`], built by [`crate::simulate::Simulation::new`] as every case
-/// is: `warm_up` untimed steps, then medians over `steps` steps.
+/// is: `warm_up` untimed steps, then medians over `steps` steps. The peak memory is that of this
+/// run if the process's peak can be reset ([`reset_peak_rss`]), else the process's.
 ///
 /// # Errors
 /// The case's validation error, a set-up or step failure, or particles touching.
@@ -209,10 +225,12 @@ pub fn moving(
     coupled_g: bool,
     follow: Option<f64>,
     cut: Option<(u32, crate::config::InterfaceRule)>,
+    factorization: crate::fem::substructure::Factorization,
 ) -> anyhow::Result<MovingBench> {
     use crate::simulate::Simulation;
     use crate::solver::moving::StepOutcome;
-    let case = moving_case(nx, ny, n, coupled_g, follow, cut)?;
+    let case = moving_case(nx, ny, n, coupled_g, follow, cut, factorization)?;
+    reset_peak_rss();
     let mut sim = Simulation::new(&case)?;
     let mut reports = Vec::new();
     for k in 0..warm_up + steps {
@@ -254,6 +272,8 @@ pub fn moving(
         },
         pattern_rebuilds: sim.stepper().flow().pattern_rebuilds(),
         flow_factorizations: sim.stepper().flow().flow_refactorizations(),
+        factorization,
+        placements: sim.stepper().flow().flow_placements(),
         run_steps: warm_up + steps,
         peak_rss_mb: peak_rss_mb(),
     })
@@ -261,14 +281,18 @@ pub fn moving(
 
 impl MovingBench {
     /// Markdown table header matching [`to_row`](Self::to_row).
-    pub const HEADER: &'static str = "| mesh | particles | flow / stress unknowns | ALE | classify | flow asm | flow sym | flow factor | flow solve | G proj | s asm | s factor | s solve | c proj | step | pattern rebuilds | flow factorizations | peak RSS |\n|---|---|---|---|---|---|---|---|---|---|---|---|---|---|---|---|---|---|";
+    pub const HEADER: &'static str = "| mesh | particles | factorization | flow / stress unknowns | ALE | classify | flow asm | flow sym + placement | flow factor | flow solve | G proj | s asm | s factor | s solve | c proj | step | pattern rebuilds | placements | flow factorizations | peak RSS |\n|---|---|---|---|---|---|---|---|---|---|---|---|---|---|---|---|---|---|---|---|";
 
     /// One markdown table row (seconds).
     pub fn to_row(&self) -> String {
         format!(
-            "| {} | {} | {} / {} | {:.4} | {:.4} | {:.4} | {:.4} | {:.4} | {:.4} | {:.4} | {:.4} | {:.4} | {:.4} | {:.4} | **{:.3}** | {} of {} | {} of {} | {} |",
+            "| {} | {} | {} | {} / {} | {:.4} | {:.4} | {:.4} | {:.4} | {:.4} | {:.4} | {:.4} | {:.4} | {:.4} | {:.4} | {:.4} | **{:.3}** | {} of {} | {} | {} of {} | {} |",
             self.mesh,
             self.particles,
+            match self.factorization {
+                crate::fem::substructure::Factorization::Band => "band",
+                crate::fem::substructure::Factorization::Whole => "whole (refactor)",
+            },
             self.unknowns.0,
             self.unknowns.1,
             self.median.ale,
@@ -285,9 +309,53 @@ impl MovingBench {
             self.median.total,
             self.pattern_rebuilds,
             self.run_steps,
+            self.placements,
             self.flow_factorizations,
             self.run_steps + 1,
             self.peak_rss_mb.map_or("—".into(), |m| format!("{m:.0} MB")),
         )
     }
+}
+
+/// The row comparing two runs of [`moving`] phase by phase: `old`/`new` (above 1: the new run
+/// is faster), and the ratio of their peak memory.
+pub fn ratio_row(new: &MovingBench, old: &MovingBench) -> String {
+    let r = |o: f64, n: f64| {
+        if n > 0.0 && o > 0.0 {
+            format!("{:.2}×", o / n)
+        } else {
+            "—".into()
+        }
+    };
+    let (a, b) = (&old.median, &new.median);
+    format!(
+        "| ratio (refactor / band) | | | | {} | {} | {} | {} | {} | {} | {} | {} | {} | {} | {} | **{}** | | | | {} |",
+        r(a.ale, b.ale),
+        r(a.classify, b.classify),
+        r(a.flow_assembly, b.flow_assembly),
+        r(a.flow_symbolic, b.flow_symbolic),
+        r(a.flow_factor, b.flow_factor),
+        r(a.flow_solve, b.flow_solve),
+        r(a.gradient_projection, b.gradient_projection),
+        r(a.transport.assembly, b.transport.assembly),
+        r(a.transport.factor, b.transport.factor),
+        r(a.transport.solve, b.transport.solve),
+        r(a.conformation_projection, b.conformation_projection),
+        r(a.total, b.total),
+        match (old.peak_rss_mb, new.peak_rss_mb) {
+            (Some(o), Some(n)) => format!("memory {:.2}× of refactor", n / o),
+            _ => "—".into(),
+        },
+    )
+}
+
+/// The closing line of a comparison: median step of the new path, of the refactor path, and
+/// their ratio.
+pub fn step_line(new: &MovingBench, old: &MovingBench) -> String {
+    format!(
+        "step: new {:.3} s, refactor path {:.3} s, ratio {:.2}",
+        new.median.total,
+        old.median.total,
+        old.median.total / new.median.total
+    )
 }

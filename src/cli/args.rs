@@ -101,7 +101,22 @@ pub enum Command {
         /// finer around each (`numerics.follow.ratio`).
         #[arg(long)]
         follow: Option<f64>,
+        /// Moving benchmark: how the flow matrix is factored; `both` runs the band path and the
+        /// refactor-every-step path one after the other and compares them phase by phase.
+        #[arg(long, value_enum, default_value_t = FactorizationArg::Both)]
+        factorization: FactorizationArg,
     },
+}
+
+/// Flow factorizations the moving benchmark runs (`numerics.factorization`).
+#[derive(Debug, Clone, Copy, PartialEq, Eq, ValueEnum)]
+pub enum FactorizationArg {
+    /// The band path, then the whole matrix every step, with the ratio of each phase.
+    Both,
+    /// The far field once per placement of a band around the particles (the cases' default).
+    Band,
+    /// The whole matrix every step.
+    Whole,
 }
 
 /// Validation studies.

@@ -2,7 +2,7 @@
 
 use std::process::ExitCode;
 
-use super::args::{cut_options, parse_mesh, BenchName, Command};
+use super::args::{cut_options, parse_mesh, BenchName, Command, FactorizationArg};
 
 /// Runs the benchmark of a `Command::Bench`.
 ///
@@ -20,21 +20,51 @@ pub(super) fn bench(command: Command) -> anyhow::Result<ExitCode> {
         cut_level,
         interface,
         follow,
+        factorization,
     } = command
     else {
         unreachable!("bench is called with the bench command")
     };
     match name {
         BenchName::Moving => {
+            use crate::fem::substructure::Factorization;
+            let paths: &[Factorization] = match factorization {
+                FactorizationArg::Both => &[Factorization::Band, Factorization::Whole],
+                FactorizationArg::Band => &[Factorization::Band],
+                FactorizationArg::Whole => &[Factorization::Whole],
+            };
             println!("{}", crate::bench::MovingBench::HEADER);
+            let mut closing = Vec::new();
             for m in mesh.split(',') {
                 let (nx, ny) = parse_mesh(m)?;
                 for &n in &particles {
                     let cut = Some((cut_level, interface.into()));
-                    let b =
-                        crate::bench::moving(nx, ny, n, 3, repeats.max(1), with_g, follow, cut)?;
-                    println!("{}", b.to_row());
+                    let runs = paths
+                        .iter()
+                        .map(|&f| {
+                            let b = crate::bench::moving(
+                                nx,
+                                ny,
+                                n,
+                                3,
+                                repeats.max(1),
+                                with_g,
+                                follow,
+                                cut,
+                                f,
+                            )?;
+                            println!("{}", b.to_row());
+                            Ok(b)
+                        })
+                        .collect::<anyhow::Result<Vec<_>>>()?;
+                    if let [new, old] = runs.as_slice() {
+                        println!("{}", crate::bench::ratio_row(new, old));
+                        closing.push(crate::bench::step_line(new, old));
+                    }
                 }
+            }
+            for line in closing {
+                println!("{line}");
             }
         }
         BenchName::Stokes => {

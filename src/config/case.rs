@@ -1,6 +1,7 @@
 //! The case specification: serde types of one simulation case (geometry, fluid, particles, numerics,
 //! output, stop rules). Construct with [`CaseSpec::from_value`], which resolves shorthands and validates.
 
+use crate::fem::substructure::Factorization;
 use serde::{Deserialize, Serialize};
 
 use crate::geometry::layout;
@@ -189,6 +190,12 @@ pub struct Numerics {
     /// existed used `linear`).
     #[serde(default)]
     pub interface: InterfaceRule,
+    /// How the flow matrix is factored when the particles moved: `band` (default: the far field
+    /// once per placement of a band around the particles, the band every step) or `whole` (the
+    /// whole matrix every step; the same solution to the solver's tolerance, for comparisons).
+    /// Not in the case id when default.
+    #[serde(default, skip_serializing_if = "Factorization::is_band")]
+    pub factorization: Factorization,
     /// Interpolation of the history fields onto the moving mesh (temporary ALE); default
     /// bicubic (earlier defaults: biquadratic, and before that the thesis' bilinear map).
     /// Always written into the canonical case of a viscoelastic case: cases that named their

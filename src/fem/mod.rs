@@ -6,3 +6,4 @@ pub mod linsolve;
 pub mod newton_inverse;
 pub mod quadrature;
 pub mod sparse;
+pub mod substructure;

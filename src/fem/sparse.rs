@@ -86,6 +86,30 @@ pub fn q1_pattern(n_vertices: usize, groups: &[[usize; 4]]) -> SparseMatrix {
 }
 
 impl SparseMatrix {
+    /// A zero matrix with the pattern given by columns (`col_ptr`, `row_idx` of compressed
+    /// columns; the rows of each column sorted, without repeats).
+    ///
+    /// # Panics
+    /// Panics if the pattern is not valid compressed-column storage.
+    pub fn from_pattern(n: usize, col_ptr: Vec<usize>, row_idx: Vec<usize>) -> Self {
+        // validates: sorted, in range, consistent pointers
+        SymbolicSparseColMatRef::new_checked(n, n, &col_ptr, None, &row_idx);
+        let nnz = row_idx.len();
+        Self {
+            n,
+            col_ptr,
+            row_idx,
+            values: vec![0.0; nnz],
+        }
+    }
+
+    /// The rows of column `j` and the range of their values in [`values`](Self::values).
+    #[inline]
+    pub fn column(&self, j: usize) -> (&[usize], std::ops::Range<usize>) {
+        let range = self.col_ptr[j]..self.col_ptr[j + 1];
+        (&self.row_idx[range.clone()], range)
+    }
+
     /// Dimension.
     pub fn n(&self) -> usize {
         self.n

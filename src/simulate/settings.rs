@@ -4,6 +4,7 @@
 //! stress coupling, the flow solver, the cut rule) or in `config` (the serde defaults of the case
 //! fields); no caller chooses them again.
 
+use crate::fem::substructure::Factorization;
 use serde::Serialize;
 
 use crate::config::{CaseSpec, Geometry, HistoryRemap, InterfaceRule, StressCoupling};
@@ -108,6 +109,9 @@ pub struct FlowSettings {
     pub coupled_g: bool,
     /// Sparse direct solver of the flow system.
     pub solver: &'static str,
+    /// How a changed flow matrix is factored: `band` (the far field once per placement of a
+    /// band around the particles) or `whole`.
+    pub factorization: Factorization,
     /// Weak rigid-body condition (thesis Eqs. 5.21–5.24), κ = η0.
     pub rigid_condition: &'static str,
     /// Ghost penalty of the flow (γ of velocity and pressure on cut-element faces).
@@ -170,9 +174,12 @@ pub fn fluid_params(case: &CaseSpec) -> ViscoelasticParams {
     let lambda = case.relaxation_time();
     let (dt, t_end) = (case.numerics.dt, case.numerics.t_end);
     if lambda == 0.0 {
-        return ViscoelasticParams::newtonian(eta_s + eta_p, dt, t_end);
+        let mut params = ViscoelasticParams::newtonian(eta_s + eta_p, dt, t_end);
+        params.factorization = case.numerics.factorization;
+        return params;
     }
     let mut params = ViscoelasticParams::new(eta_s, eta_p, lambda, case.fluid.alpha, dt, t_end);
+    params.factorization = case.numerics.factorization;
     match case.numerics.coupling {
         // without solvent viscosity the explicit stress has no viscous term (thesis §5.3.2)
         StressCoupling::Auto if eta_s == 0.0 => params.coupling = Coupling::SemiImplicit,
@@ -239,6 +246,11 @@ impl Settings {
                 devss_theta: if polymer { params.theta } else { 0.0 },
                 coupled_g: polymer && params.coupled_g,
                 solver: if lu { "LU" } else { "LBLT" },
+                factorization: if lu {
+                    Factorization::Whole
+                } else {
+                    n.factorization
+                },
                 rigid_condition: "symmetric weak condition, kappa = eta0",
                 ghost_penalty: FLOW_GHOST_PENALTY,
                 stress_ghost_penalty: GHOST_PENALTY,

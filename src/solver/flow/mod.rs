@@ -21,6 +21,7 @@
 //! assembly, the element kernels and the particle forces are in the submodules.
 
 mod assemble;
+mod band;
 mod cache;
 mod constraints;
 mod dofs;
@@ -30,6 +31,8 @@ mod pattern;
 #[cfg(test)]
 mod tests;
 
+pub use crate::fem::substructure::Factorization as FlowFactorization;
+pub use band::BAND_FRACTION_LIMIT;
 pub use dofs::Layout;
 
 use std::collections::HashMap;
@@ -43,6 +46,7 @@ use crate::fem::element::{q1, q2_map};
 use crate::fem::linsolve::{DirectSolver, SolveError, SolverKind};
 use crate::fem::quadrature::{gauss_quad, QuadRule};
 use crate::fem::sparse::SparseMatrix;
+use crate::fem::substructure::Substructured;
 use crate::mesh::{Mesh, Side};
 use crate::solver::polymer_terms::PolymerStress;
 use crate::solver::rigid::{ElementCut, Particle, WeakForm};
@@ -67,6 +71,8 @@ pub struct StokesParams {
     /// ([`ghost_patch_matrices`](crate::solver::ghost::ghost_patch_matrices)): velocity
     /// γ (η + θ)/h², pressure −γ/(η + θ); 0 = none.
     pub ghost_penalty: f64,
+    /// How a changed matrix is factored (LBLᵀ only; LU always factors the whole matrix).
+    pub factorization: FlowFactorization,
 }
 
 impl StokesParams {
@@ -81,6 +87,7 @@ impl StokesParams {
             kappa: eta + theta,
             coupled_g: true,
             ghost_penalty: FLOW_GHOST_PENALTY,
+            factorization: FlowFactorization::Band,
         }
     }
 }
@@ -92,6 +99,9 @@ pub struct Timings {
     pub assembly: f64,
     /// Symbolic analysis (only on the first solve).
     pub symbolic: f64,
+    /// New placement of the band ([`FlowFactorization::Band`]): far-field factorization and
+    /// condensation, band analysis.
+    pub placement: f64,
     /// Numeric factorization.
     pub numeric: f64,
     /// Triangular solves and residual check.
@@ -154,6 +164,13 @@ pub struct Stokes {
     pub refactorizations: usize,
     /// Pattern (and symbolic analysis) rebuilds caused by [`set_particles`](Self::set_particles).
     pub pattern_rebuilds: usize,
+    /// Placements of the band of [`FlowFactorization::Band`] (far-field factorizations).
+    pub placements: usize,
+    /// The band solver of the current placement.
+    band_solver: Option<Substructured>,
+    /// Solves of [`FlowFactorization::Band`] that fell back to the whole matrix because the
+    /// band solver failed (its placement or a factorization); 0 in every run measured.
+    pub band_fallbacks: usize,
     /// Invalidations of the cached fluid base matrix by [`set_mesh`](Self::set_mesh) (an element
     /// outside the moving-element mask moved); the base is rebuilt at the next solve.
     pub base_rebuilds: usize,
@@ -229,6 +246,9 @@ impl Stokes {
             factored_values: None,
             refactorizations: 0,
             pattern_rebuilds: 0,
+            placements: 0,
+            band_solver: None,
+            band_fallbacks: 0,
             base_rebuilds: 0,
             rule: gauss_quad(3),
             particles,
@@ -265,6 +285,7 @@ impl Stokes {
             self.reach = reach_for(&self.mesh, &self.particles, &self.cuts);
             self.matrix = build_pattern(&self.mesh, &self.layout, &self.reach);
             self.solver = None;
+            self.band_solver = None;
             self.fluid_base = None;
             self.pattern_rebuilds += 1;
         }
@@ -313,6 +334,7 @@ impl Stokes {
             // travels along the channel)
             self.moving = dilate(&changed, mesh.dims(), mesh.periodic, MOVING_MARGIN);
             self.fluid_base = None;
+            self.band_solver = None;
             self.base_rebuilds += 1;
         }
         self.mesh = mesh;
@@ -359,6 +381,20 @@ impl Stokes {
         let t0 = Instant::now();
         self.assemble(f, stress);
         let t1 = Instant::now();
+        if self.params.factorization == FlowFactorization::Band
+            && self.params.solver == SolverKind::Lblt
+        {
+            if let Some((residual, times)) = self.solve_by_band()? {
+                self.timings = Timings {
+                    assembly: (t1 - t0).as_secs_f64(),
+                    symbolic: 0.0,
+                    placement: times.placement,
+                    numeric: times.numeric,
+                    solve: times.solve,
+                };
+                return Ok(self.extract(residual));
+            }
+        }
         let mut symbolic = 0.0;
         if self.solver.is_none() {
             self.solver = Some(match self.params.solver {
@@ -387,6 +423,7 @@ impl Stokes {
         self.timings = Timings {
             assembly: (t1 - t0).as_secs_f64(),
             symbolic,
+            placement: 0.0,
             numeric: (t3 - t2).as_secs_f64(),
             solve: t3.elapsed().as_secs_f64(),
         };

@@ -54,7 +54,8 @@ pub struct StepTimings {
     pub classify: f64,
     /// Flow: assembly.
     pub flow_assembly: f64,
-    /// Flow: symbolic analysis (first solve only).
+    /// Flow: symbolic analysis (first solve only, or after a pattern rebuild) and new placements
+    /// of the band solver (far-field factorization and condensation).
     pub flow_symbolic: f64,
     /// Flow: numeric factorization.
     pub flow_factor: f64,
@@ -188,6 +189,7 @@ impl ViscoelasticFlow {
         let mut sp = StokesParams::new(params.eta_s, params.theta, solver);
         sp.rigid_form = params.rigid_form;
         sp.coupled_g = params.coupled_g;
+        sp.factorization = params.factorization;
         let (nv, nn) = (mesh.n_vertices(), mesh.n_nodes());
         let n_particles = particles.len();
         let mut transport = LogConformationTransport::new(&mesh);
@@ -247,6 +249,11 @@ impl ViscoelasticFlow {
     /// GMRES, or an unchanged matrix, do not count).
     pub fn flow_refactorizations(&self) -> usize {
         self.stokes.refactorizations
+    }
+
+    /// Placements of the flow's band solver (far-field factorizations) so far.
+    pub fn flow_placements(&self) -> usize {
+        self.stokes.placements
     }
 
     /// Pattern rebuilds of the flow matrix caused by moving particles (the rest reused the
@@ -474,7 +481,7 @@ impl ViscoelasticFlow {
                 ale: 0.0,
                 classify: 0.0,
                 flow_assembly: ft.assembly,
-                flow_symbolic: ft.symbolic,
+                flow_symbolic: ft.symbolic + ft.placement,
                 flow_factor: ft.numeric,
                 flow_solve: ft.solve,
                 gradient_projection,

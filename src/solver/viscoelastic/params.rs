@@ -1,6 +1,7 @@
 //! Parameters of a viscoelastic run and the errors of its time stepper.
 
 use crate::fem::linsolve::SolveError;
+use crate::fem::substructure::Factorization;
 use crate::rheology::{Fluid, RheologyError};
 use crate::solver::constitutive::ConstitutiveError;
 use crate::solver::constitutive_stress::Coupling;
@@ -36,6 +37,9 @@ pub struct ViscoelasticParams {
     /// Form of the weak rigid-body condition; [`WeakForm::Thesis`] (non-symmetric, coercive for
     /// any κ however small the cut) needs an LU flow solver, chosen automatically.
     pub rigid_form: WeakForm,
+    /// How the flow matrix is factored when it changed (the particles moved):
+    /// [`Factorization::Band`] (default) or the whole matrix every step.
+    pub factorization: Factorization,
 }
 
 impl ViscoelasticParams {
@@ -65,6 +69,7 @@ impl ViscoelasticParams {
             coupled_g: false,
             steady_tol: STEADY_TOL,
             rigid_form: WeakForm::Symmetric,
+            factorization: Factorization::Band,
         }
     }
 

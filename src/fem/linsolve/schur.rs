@@ -1,0 +1,261 @@
+//! The Schur complement of a factored matrix onto the dofs it eliminates last, read from the
+//! supernodal LBLᵀ factor instead of being computed by one solve per condensed dof.
+//!
+//! With the dofs W eliminated last, the factor P (D A D) Pᵀ = L B Lᵀ splits as
+//! `L = [[L₁₁, 0], [L₂₁, L₂₂]]`, and the Schur complement of the leading block is
+//! `D_W S D_W = L₂₂ B₂₂ L₂₂ᵀ` (B is block diagonal, so B₂₂ is its trailing part). A supernode's
+//! Bunch–Kaufman pivoting permutes within the supernode only, so W is taken from the start of
+//! the supernode that holds the first requested dof; dofs of W that were not requested are then
+//! eliminated densely.
+
+use faer::linalg::matmul::matmul;
+use faer::sparse::linalg::cholesky::{supernodal::SupernodalIntranodeLbltRef, SymbolicCholeskyRaw};
+use faer::{Accum, Mat, Par};
+
+use super::{Backend, DirectSolver, SolveError};
+use faer::perm::PermRef;
+use faer::prelude::Solve;
+
+/// Largest number of dofs, as a multiple of the requested ones plus [`MAX_EXTRA`], that
+/// [`DirectSolver::schur_complement`] reconstructs densely (the rest is a caller's ordering
+/// error: the requested dofs must come last).
+const MAX_EXTRA_FACTOR: usize = 3;
+/// See [`MAX_EXTRA_FACTOR`].
+const MAX_EXTRA: usize = 512;
+
+impl DirectSolver {
+    /// The Schur complement S = A_ΓΓ − A_ΓR A_RR⁻¹ A_RΓ of the last factored matrix A onto the
+    /// dofs Γ = `dofs` (dense, rows and columns in the order of `dofs`), R being all other dofs.
+    /// The dofs must be among the last ones of the elimination order (give them last to
+    /// [`analyze_with_order`](Self::analyze_with_order); the symbolic analysis may postorder
+    /// them among the last few); the factorization must be LBLᵀ.
+    ///
+    /// Costs m³ flops for the m dofs eliminated after the start of the supernode holding the
+    /// first of `dofs` (about |Γ| when Γ forms the root supernode), instead of the |Γ| solves
+    /// with the whole factor that A_RR⁻¹ A_RΓ would take.
+    pub fn schur_complement(&self, dofs: &[usize]) -> Result<Mat<f64>, SolveError> {
+        if !self.factored {
+            return Err(SolveError::NotFactored);
+        }
+        let Backend::Lblt {
+            symbolic,
+            l_values,
+            subdiag,
+            perm_fwd,
+            perm_inv,
+        } = &self.backend
+        else {
+            return Err(SolveError::Symbolic(
+                "Schur complement needs the LBLᵀ factorization".into(),
+            ));
+        };
+        let SymbolicCholeskyRaw::Supernodal(sn) = symbolic.raw() else {
+            return Err(SolveError::Symbolic(
+                "Schur complement needs a supernodal factorization".into(),
+            ));
+        };
+        let n = self.n;
+        // position in the factor of each dof: fill-reducing order, then the intranode pivots
+        let (fill_fwd, fill_inv): (Vec<usize>, Vec<usize>) = match symbolic.perm() {
+            Some(p) => (p.arrays().0.to_vec(), p.arrays().1.to_vec()),
+            None => ((0..n).collect(), (0..n).collect()),
+        };
+        let position = |d: usize| perm_inv[fill_inv[d]];
+        let dof_at = |p: usize| fill_fwd[perm_fwd[p]];
+        let first = dofs.iter().map(|&d| position(d)).min().unwrap_or(n);
+        let begin = sn.supernode_begin();
+        let s0 = begin.partition_point(|&b| b <= first) - 1;
+        let start = begin[s0];
+        let m = n - start;
+        if m > MAX_EXTRA_FACTOR * dofs.len() + MAX_EXTRA {
+            return Err(SolveError::Symbolic(format!(
+                "Schur complement onto {} dofs: they are not among the last of the elimination \
+                 order ({m} dofs follow the first of them)",
+                dofs.len()
+            )));
+        }
+        let factor = SupernodalIntranodeLbltRef::new(
+            sn,
+            l_values,
+            subdiag,
+            PermRef::new_checked(perm_fwd, perm_inv, n),
+        );
+        // L₂₂ (unit lower) and B₂₂ of the positions start..n
+        let mut l = Mat::<f64>::zeros(m, m);
+        let mut b = Mat::<f64>::zeros(m, m);
+        for s in s0..sn.n_supernodes() {
+            let node = factor.supernode(s);
+            let (s_start, vals, pattern) = (node.start(), node.val(), node.pattern());
+            let size = vals.ncols();
+            for c in 0..size {
+                let col = s_start + c - start;
+                l[(col, col)] = 1.0;
+                for r in c + 1..size {
+                    l[(s_start + r - start, col)] = vals[(r, c)];
+                }
+                for (k, &i) in pattern.iter().enumerate() {
+                    l[(perm_inv[i] - start, col)] = vals[(size + k, c)];
+                }
+                b[(col, col)] = vals[(c, c)];
+                let sub = subdiag[s_start + c];
+                if sub != 0.0 {
+                    b[(col + 1, col)] = sub;
+                    b[(col, col + 1)] = sub;
+                }
+            }
+        }
+        // L B: B is diagonal with 2×2 blocks, so this is a scaling of the columns of L
+        let mut lb = Mat::<f64>::zeros(m, m);
+        let mut c = 0;
+        while c < m {
+            if c + 1 < m && b[(c + 1, c)] != 0.0 {
+                let (b11, b21, b22) = (b[(c, c)], b[(c + 1, c)], b[(c + 1, c + 1)]);
+                for r in c..m {
+                    let (l1, l2) = (l[(r, c)], l[(r, c + 1)]);
+                    lb[(r, c)] = l1 * b11 + l2 * b21;
+                    lb[(r, c + 1)] = l1 * b21 + l2 * b22;
+                }
+                c += 2;
+            } else {
+                let d = b[(c, c)];
+                for r in c..m {
+                    lb[(r, c)] = l[(r, c)] * d;
+                }
+                c += 1;
+            }
+        }
+        drop(b);
+        let mut s_w = Mat::<f64>::zeros(m, m);
+        matmul(&mut s_w, Accum::Replace, &lb, l.transpose(), 1.0, Par::Seq);
+        // undo the equilibration: the factor is of D A D
+        let w: Vec<usize> = (start..n).map(dof_at).collect();
+        for j in 0..m {
+            for i in 0..m {
+                s_w[(i, j)] /= self.scale[w[i]] * self.scale[w[j]];
+            }
+        }
+        // condense the leading dofs of the supernode that were not asked for
+        let mut local = vec![usize::MAX; n];
+        w.iter().enumerate().for_each(|(k, &d)| local[d] = k);
+        let gamma: Vec<usize> = dofs.iter().map(|&d| local[d]).collect();
+        let mut is_gamma = vec![false; m];
+        gamma.iter().for_each(|&k| is_gamma[k] = true);
+        let extra: Vec<usize> = (0..m).filter(|&k| !is_gamma[k]).collect();
+        let g = gamma.len();
+        let mut s = Mat::<f64>::from_fn(g, g, |i, j| s_w[(gamma[i], gamma[j])]);
+        if !extra.is_empty() {
+            let e = extra.len();
+            let s_ee = Mat::<f64>::from_fn(e, e, |i, j| s_w[(extra[i], extra[j])]);
+            let s_eg = Mat::<f64>::from_fn(e, g, |i, j| s_w[(extra[i], gamma[j])]);
+            let x = s_ee.partial_piv_lu().solve(&s_eg);
+            let s_ge = Mat::<f64>::from_fn(g, e, |i, j| s_w[(gamma[i], extra[j])]);
+            matmul(&mut s, Accum::Add, &s_ge, &x, -1.0, Par::Seq);
+        }
+        if s.col_iter().all(|c| c.iter().all(|v| v.is_finite())) {
+            Ok(s)
+        } else {
+            Err(SolveError::Numeric("non-finite Schur complement".into()))
+        }
+    }
+}
+
+#[cfg(test)]
+mod tests {
+    use super::super::SolverKind;
+    use super::*;
+    use crate::fem::sparse::{PatternBuilder, SparseMatrix};
+
+    /// A symmetric saddle-point matrix on a chain of `n` velocity-like dofs with a pressure-like
+    /// dof per three of them (zero diagonal), and entries over several orders of magnitude.
+    fn chain_saddle(n: usize) -> SparseMatrix {
+        let np = n / 3;
+        let mut pb = PatternBuilder::new(n + np);
+        for i in 0..n - 1 {
+            pb.add_group(&[i, i + 1]);
+        }
+        for p in 0..np {
+            pb.add_coupling(&[n + p], &[3 * p, 3 * p + 1, 3 * p + 2]);
+            if p + 1 < np {
+                pb.add_group(&[n + p, 3 * p + 3]);
+            }
+        }
+        let mut a = pb.build();
+        // a diagonally dominant velocity block with couplings from 1e-2 to 1e2
+        let s = |i: usize| 10f64.powi((i % 5) as i32 - 2);
+        for i in 0..n {
+            let left = if i > 0 { s(i - 1) } else { 0.0 };
+            a.add(i, i, 2.0 * (s(i) + left) + 1.0);
+            if i + 1 < n {
+                a.add(i, i + 1, -s(i));
+                a.add(i + 1, i, -s(i));
+            }
+        }
+        for p in 0..np {
+            for c in [3 * p, 3 * p + 1, 3 * p + 2] {
+                a.add(n + p, c, 1.0 + 0.1 * c as f64);
+                a.add(c, n + p, 1.0 + 0.1 * c as f64);
+            }
+            if p + 1 < np {
+                a.add(n + p, 3 * p + 3, 0.5);
+                a.add(3 * p + 3, n + p, 0.5);
+            }
+        }
+        a
+    }
+
+    fn dense(a: &SparseMatrix) -> Mat<f64> {
+        Mat::from_fn(a.n(), a.n(), |i, j| a.get(i, j))
+    }
+
+    #[test]
+    fn schur_complement_matches_the_dense_one() {
+        // round-off of a few eliminations on entries of up to 1e2 (relative to max |S_ij|)
+        const TOL: f64 = 1e-11;
+        let a = chain_saddle(60);
+        let n = a.n();
+        // condense onto sets scattered through the chain (velocity and pressure dofs; A_RR must
+        // stay regular: no pressure left without a velocity), which the symbolic analysis
+        // postorders among other dofs
+        for gamma in [vec![7, 30, 31, 64, 70], vec![1, 2, 20, 21, 22, 61, 62, 79]] {
+            let mut order: Vec<usize> = (0..n).filter(|d| !gamma.contains(d)).collect();
+            order.extend(&gamma);
+            let mut s = DirectSolver::analyze_with_order(&a, SolverKind::Lblt, &order).unwrap();
+            s.factor(&a).unwrap();
+            let got = s.schur_complement(&gamma).unwrap();
+            let full = dense(&a);
+            let rest: Vec<usize> = order[..n - gamma.len()].to_vec();
+            let (r, g) = (rest.len(), gamma.len());
+            let a_rr = Mat::<f64>::from_fn(r, r, |i, j| full[(rest[i], rest[j])]);
+            let a_rg = Mat::<f64>::from_fn(r, g, |i, j| full[(rest[i], gamma[j])]);
+            let x = a_rr.partial_piv_lu().solve(&a_rg);
+            let mut want = Mat::<f64>::from_fn(g, g, |i, j| full[(gamma[i], gamma[j])]);
+            let a_gr = Mat::<f64>::from_fn(g, r, |i, j| full[(gamma[i], rest[j])]);
+            matmul(&mut want, Accum::Add, &a_gr, &x, -1.0, Par::Seq);
+            let scale = want
+                .col_iter()
+                .flat_map(|c| c.iter().map(|v| v.abs()).collect::<Vec<_>>())
+                .fold(0.0, f64::max);
+            for i in 0..g {
+                for j in 0..g {
+                    assert!(
+                        (got[(i, j)] - want[(i, j)]).abs() <= TOL * scale,
+                        "S[{i},{j}] = {} vs {}",
+                        got[(i, j)],
+                        want[(i, j)]
+                    );
+                }
+            }
+        }
+    }
+
+    #[test]
+    fn schur_complement_refuses_dofs_not_eliminated_last() {
+        let a = chain_saddle(900);
+        let order: Vec<usize> = (0..a.n()).collect();
+        let mut s = DirectSolver::analyze_with_order(&a, SolverKind::Lblt, &order).unwrap();
+        s.factor(&a).unwrap();
+        assert!(s.schur_complement(&[0, 1]).is_err());
+        let r = s.schur_complement(&[a.n() - 2, a.n() - 1]);
+        assert!(r.is_ok(), "{r:?}");
+    }
+}

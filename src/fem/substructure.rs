@@ -1,0 +1,410 @@
+//! A direct solver for a sequence of matrices that differ only in the rows and columns of a
+//! band of dofs: the rest (the far field F) is factored once per placement of the band and
+//! condensed onto the band's boundary Γ; each new matrix pays the factorization of the band
+//! alone.
+//!
+//! With the dofs split into far F, interface Γ (band dofs coupled to F) and band interior I,
+//!
+//! ```text
+//!       [ A_FF  A_FΓ   0   ]
+//!   A = [ A_ΓF  A_ΓΓ  A_ΓI ]      K = [ A_FF  A_FΓ ]      M = [ A_II  A_IΓ ]
+//!       [  0    A_IΓ  A_II ]          [ A_ΓF  A_ΓΓ ]          [ A_ΓI  S    ]
+//! ```
+//!
+//! where S = A_ΓΓ − A_ΓF A_FF⁻¹ A_FΓ is the Schur complement of K onto Γ (dense). K is fixed
+//! while the band stays where it is (its entries are checked at every factorization), so it is
+//! factored and condensed once ([`DirectSolver::schur_complement`]); M changes in its I rows
+//! only but is small, and is factored for every new matrix. A solve is two solves with K and one
+//! with M:
+//!
+//! ```text
+//!   K [z_F; z_Γ] = [b_F; 0]               (z_Γ = −S⁻¹ A_ΓF A_FF⁻¹ b_F)
+//!   M [x_I; x_Γ] = [b_I; b_Γ + S z_Γ]
+//!   K [x_F; x_Γ] = [b_F; S (x_Γ − z_Γ)]
+//! ```
+//!
+//! This is what a factorization of the whole matrix with the band eliminated last would do; the
+//! far field's part of it is simply not repeated.
+
+use faer::linalg::matmul::matmul;
+use faer::{Accum, ColMut, ColRef, Mat, Par};
+
+use super::linsolve::{checked_solve, DirectSolver, SolveError, SolverKind};
+use super::sparse::SparseMatrix;
+
+/// How a solver factors a matrix that changed since its last factorization (the flow solver's
+/// choice; a case's `numerics.factorization`).
+#[derive(Debug, Clone, Copy, Default, PartialEq, Eq, serde::Serialize, serde::Deserialize)]
+#[serde(rename_all = "lowercase")]
+pub enum Factorization {
+    /// The whole matrix, every time.
+    Whole,
+    /// By substructuring ([`Substructured`]): the far field once per placement of a band around
+    /// what changes (the particles, the moving elements), the band every time; the whole matrix
+    /// when there is no band or it is too large to pay.
+    #[default]
+    Band,
+}
+
+impl Factorization {
+    /// Whether this is the default, [`Factorization::Band`].
+    pub fn is_band(&self) -> bool {
+        *self == Factorization::Band
+    }
+}
+
+/// The dofs of a band and of its far field, with K and its condensation onto Γ (fixed while the
+/// band stays), and M (refactored for every new matrix).
+pub struct Substructured {
+    /// K index → dof: far dofs, then Γ.
+    k_dofs: Vec<usize>,
+    /// Number of far dofs (K indices below are F, the rest Γ).
+    n_far: usize,
+    /// K with the values it was factored with.
+    k: SparseMatrix,
+    /// Position in A's values of each of K's values.
+    k_src: Vec<usize>,
+    k_solver: DirectSolver,
+    /// S on Γ, in the order of the Γ part of `k_dofs` (= of `m_dofs`).
+    schur: Mat<f64>,
+    /// M index → dof: band interior, then Γ.
+    m_dofs: Vec<usize>,
+    /// Number of interior dofs.
+    n_interior: usize,
+    m: SparseMatrix,
+    /// Position in A's values of each of M's values outside the Γ × Γ block.
+    m_src: Vec<usize>,
+    m_solver: DirectSolver,
+    /// Work vectors in K and M numbering, and z_Γ.
+    kb: Vec<f64>,
+    mb: Vec<f64>,
+    z: Vec<f64>,
+    last_polish: usize,
+}
+
+impl std::fmt::Debug for Substructured {
+    fn fmt(&self, f: &mut std::fmt::Formatter<'_>) -> std::fmt::Result {
+        f.debug_struct("Substructured")
+            .field("far", &self.n_far)
+            .field("interface", &(self.k_dofs.len() - self.n_far))
+            .field("interior", &self.n_interior)
+            .finish()
+    }
+}
+
+/// Sizes of a [`Substructured`] split.
+#[derive(Debug, Clone, Copy, PartialEq, Eq)]
+pub struct Split {
+    /// Far dofs (F).
+    pub far: usize,
+    /// Interface dofs (Γ).
+    pub interface: usize,
+    /// Band interior dofs (I).
+    pub interior: usize,
+}
+
+impl Substructured {
+    /// Splits the dofs of `a` into the band (`band[d]`) and the far field, factors K (the far
+    /// field and Γ, eliminated in the order of `order`, a fill-reducing order of all dofs, with
+    /// Γ last) and condenses it onto Γ, and analyses M. The band must not be empty.
+    pub fn new(a: &SparseMatrix, band: &[bool], order: &[usize]) -> Result<Self, SolveError> {
+        let n = a.n();
+        assert_eq!(band.len(), n, "one band flag per dof");
+        // Γ: band dofs coupled to a far dof
+        let mut gamma = vec![false; n];
+        for j in (0..n).filter(|&j| !band[j]) {
+            for &i in a.column(j).0 {
+                if band[i] {
+                    gamma[i] = true;
+                }
+            }
+        }
+        // numberings in the elimination order: K = F then Γ, M = I then Γ
+        let far: Vec<usize> = order.iter().copied().filter(|&d| !band[d]).collect();
+        let iface: Vec<usize> = order.iter().copied().filter(|&d| gamma[d]).collect();
+        let inner: Vec<usize> = order
+            .iter()
+            .copied()
+            .filter(|&d| band[d] && !gamma[d])
+            .collect();
+        let k_dofs: Vec<usize> = far.iter().chain(&iface).copied().collect();
+        let m_dofs: Vec<usize> = inner.iter().chain(&iface).copied().collect();
+        let (n_far, n_interior, n_gamma) = (far.len(), inner.len(), iface.len());
+
+        let (mut k, k_src) = submatrix(a, &k_dofs, None);
+        k.values
+            .iter_mut()
+            .zip(&k_src)
+            .for_each(|(v, &p)| *v = a.values[p]);
+        let k_order: Vec<usize> = (0..k_dofs.len()).collect();
+        let mut k_solver = DirectSolver::analyze_with_order(&k, SolverKind::Lblt, &k_order)?;
+        k_solver.factor(&k)?;
+        let gamma_k: Vec<usize> = (n_far..k_dofs.len()).collect();
+        let schur = k_solver.schur_complement(&gamma_k)?;
+
+        let (m, m_src) = submatrix(a, &m_dofs, Some(n_interior));
+        let m_order: Vec<usize> = (0..m_dofs.len()).collect();
+        let m_solver = DirectSolver::analyze_with_order(&m, SolverKind::Lblt, &m_order)?;
+        Ok(Self {
+            kb: vec![0.0; k_dofs.len()],
+            mb: vec![0.0; m_dofs.len()],
+            z: vec![0.0; n_gamma],
+            k_dofs,
+            n_far,
+            k,
+            k_src,
+            k_solver,
+            schur,
+            m_dofs,
+            n_interior,
+            m,
+            m_src,
+            m_solver,
+            last_polish: 0,
+        })
+    }
+
+    /// Sizes of the split.
+    pub fn split(&self) -> Split {
+        Split {
+            far: self.n_far,
+            interface: self.k_dofs.len() - self.n_far,
+            interior: self.n_interior,
+        }
+    }
+
+    /// Whether `a` has the values this split was made for outside the band (bitwise): only
+    /// then may [`factor`](Self::factor) take it.
+    pub fn fits(&self, a: &SparseMatrix) -> bool {
+        self.k_src
+            .iter()
+            .zip(&self.k.values)
+            .all(|(&p, &v)| a.values[p].to_bits() == v.to_bits())
+    }
+
+    /// Factors M for `a`, which must [`fit`](Self::fits).
+    pub fn factor(&mut self, a: &SparseMatrix) -> Result<(), SolveError> {
+        debug_assert!(self.fits(a), "the far field changed: make a new split");
+        let ni = self.n_interior;
+        let ng = self.m_dofs.len() - ni;
+        let mut src = self.m_src.iter();
+        for j in 0..self.m_dofs.len() {
+            let (rows, range) = self.m.column(j);
+            // the Γ × Γ block is S: the last ng rows of a Γ column
+            let dense = if j >= ni { ng } else { 0 };
+            let sparse_len = rows.len() - dense;
+            let vals = &mut self.m.values[range];
+            for v in &mut vals[..sparse_len] {
+                *v = a.values[*src.next().expect("one source per entry")];
+            }
+            if dense > 0 {
+                vals[sparse_len..].copy_from_slice(
+                    self.schur
+                        .col(j - ni)
+                        .try_as_col_major()
+                        .expect("contiguous")
+                        .as_slice(),
+                );
+            }
+        }
+        self.m_solver.factor(&self.m)
+    }
+
+    /// Solves A x = b in place for the last factored A (`rhs` holds b on entry, x on exit).
+    pub fn solve_in_place(&mut self, rhs: &mut [f64]) -> Result<(), SolveError> {
+        let (nf, ni) = (self.n_far, self.n_interior);
+        let ng = self.z.len();
+        // K [z_F; z_Γ] = [b_F; 0]
+        for (k, &d) in self.k_dofs.iter().enumerate() {
+            self.kb[k] = if k < nf { rhs[d] } else { 0.0 };
+        }
+        self.k_solver.solve_in_place(&mut self.kb)?;
+        self.z.copy_from_slice(&self.kb[nf..]);
+        // M [x_I; x_Γ] = [b_I; b_Γ + S z_Γ]
+        for (k, &d) in self.m_dofs.iter().enumerate() {
+            self.mb[k] = rhs[d];
+        }
+        gemv(
+            ColMut::from_slice_mut(&mut self.mb[ni..]),
+            &self.schur,
+            ColRef::from_slice(&self.z),
+        );
+        self.m_solver.solve_in_place(&mut self.mb)?;
+        // K [x_F; x_Γ] = [b_F; S (x_Γ − z_Γ)]
+        for (k, &d) in self.k_dofs[..nf].iter().enumerate() {
+            self.kb[k] = rhs[d];
+        }
+        for (z, x) in self.z.iter_mut().zip(&self.mb[ni..]) {
+            *z = x - *z;
+        }
+        self.kb[nf..].iter_mut().for_each(|v| *v = 0.0);
+        gemv(
+            ColMut::from_slice_mut(&mut self.kb[nf..]),
+            &self.schur,
+            ColRef::from_slice(&self.z),
+        );
+        self.k_solver.solve_in_place(&mut self.kb)?;
+        for (k, &d) in self.k_dofs[..nf].iter().enumerate() {
+            rhs[d] = self.kb[k];
+        }
+        for (k, &d) in self.m_dofs.iter().enumerate() {
+            rhs[d] = self.mb[k];
+        }
+        debug_assert_eq!(ng, self.m_dofs.len() - ni);
+        Ok(())
+    }
+
+    /// Solves A x = b and checks the relative residual against `tol`, polishing by GMRES
+    /// preconditioned with this solver when it misses
+    /// ([`checked_solve`]).
+    pub fn solve_checked(
+        &mut self,
+        a: &SparseMatrix,
+        b: &[f64],
+        x: &mut [f64],
+        tol: f64,
+    ) -> Result<f64, SolveError> {
+        let (res, polish) = checked_solve(a, b, x, tol, &mut |v| self.solve_in_place(v))?;
+        self.last_polish = polish;
+        Ok(res)
+    }
+
+    /// GMRES iterations of the last [`solve_checked`](Self::solve_checked).
+    pub fn last_polish_iterations(&self) -> usize {
+        self.last_polish
+    }
+}
+
+/// y += S x (dense).
+fn gemv(y: ColMut<'_, f64>, s: &Mat<f64>, x: ColRef<'_, f64>) {
+    matmul(y, Accum::Add, s, x, 1.0, Par::Seq);
+}
+
+/// The submatrix of `a` on `dofs` (new index → dof) as a pattern, and for each of its entries
+/// the position of the value in `a`. With `dense_from = Some(k)`, the block of the indices
+/// `k..` is stored dense and its entries have no source (they come last in each of its columns).
+fn submatrix(
+    a: &SparseMatrix,
+    dofs: &[usize],
+    dense_from: Option<usize>,
+) -> (SparseMatrix, Vec<usize>) {
+    let m = dofs.len();
+    let mut local = vec![usize::MAX; a.n()];
+    dofs.iter().enumerate().for_each(|(k, &d)| local[d] = k);
+    let dense = dense_from.unwrap_or(m);
+    let mut col_ptr = Vec::with_capacity(m + 1);
+    let mut row_idx = Vec::new();
+    let mut src = Vec::new();
+    let mut entries: Vec<(usize, usize)> = Vec::new();
+    col_ptr.push(0);
+    for (j, &d) in dofs.iter().enumerate() {
+        entries.clear();
+        let (rows, range) = a.column(d);
+        for (&i, p) in rows.iter().zip(range) {
+            let k = local[i];
+            if k != usize::MAX && !(j >= dense && k >= dense) {
+                entries.push((k, p));
+            }
+        }
+        entries.sort_unstable();
+        for &(k, p) in &entries {
+            row_idx.push(k);
+            src.push(p);
+        }
+        if j >= dense {
+            row_idx.extend(dense..m);
+        }
+        col_ptr.push(row_idx.len());
+    }
+    (SparseMatrix::from_pattern(m, col_ptr, row_idx), src)
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+    use crate::fem::sparse::PatternBuilder;
+
+    /// A Stokes-like saddle-point matrix on a 1D chain: velocities 0..n (tridiagonal, SPD), a
+    /// pressure per three velocities.
+    fn chain(n: usize, band_scale: f64, band: std::ops::Range<usize>) -> SparseMatrix {
+        let np = n / 3;
+        let mut pb = PatternBuilder::new(n + np);
+        for i in 0..n - 1 {
+            pb.add_group(&[i, i + 1]);
+        }
+        for p in 0..np {
+            pb.add_coupling(&[n + p], &[3 * p, 3 * p + 1, 3 * p + 2]);
+        }
+        let mut a = pb.build();
+        for i in 0..n - 1 {
+            // the band's elements change between matrices
+            let s = if band.contains(&i) && band.contains(&(i + 1)) {
+                band_scale
+            } else {
+                1.0 + 0.01 * i as f64
+            };
+            for (r, c, v) in [(i, i, s), (i + 1, i + 1, s), (i, i + 1, -s), (i + 1, i, -s)] {
+                a.add(r, c, v);
+            }
+        }
+        a.add(0, 0, 1.0);
+        for p in 0..np {
+            for c in [3 * p, 3 * p + 1, 3 * p + 2] {
+                a.add(n + p, c, 1.0);
+                a.add(c, n + p, 1.0);
+            }
+        }
+        a
+    }
+
+    #[test]
+    fn substructured_solves_match_the_whole_factorization() {
+        // relative residual accepted (the flow solver's)
+        const TOL: f64 = 1e-10;
+        let n = 90;
+        let range = 30..45;
+        let a0 = chain(n, 2.0, range.clone());
+        let nd = a0.n();
+        // band: the velocities 27..48 and their pressures
+        let band: Vec<bool> = (0..nd)
+            .map(|d| {
+                if d < n {
+                    (27..48).contains(&d)
+                } else {
+                    (9..16).contains(&(d - n))
+                }
+            })
+            .collect();
+        let order: Vec<usize> = (0..nd).collect();
+        let mut sub = Substructured::new(&a0, &band, &order).unwrap();
+        assert!(sub.split().interface > 0 && sub.split().interior > 0);
+        let b: Vec<f64> = (0..nd).map(|i| (0.3 * i as f64).cos()).collect();
+        for scale in [2.0, 1e-4, 50.0] {
+            let a = chain(n, scale, range.clone());
+            assert!(sub.fits(&a), "only the band changed");
+            sub.factor(&a).unwrap();
+            let mut x = vec![0.0; nd];
+            let res = sub.solve_checked(&a, &b, &mut x, TOL).unwrap();
+            assert!(res <= TOL, "residual {res:.2e} at band scale {scale}");
+            let mut whole = DirectSolver::analyze(&a, SolverKind::Lblt).unwrap();
+            whole.factor(&a).unwrap();
+            let mut y = vec![0.0; nd];
+            whole.solve_checked(&a, &b, &mut y, TOL).unwrap();
+            let err = x
+                .iter()
+                .zip(&y)
+                .map(|(p, q)| (p - q).abs())
+                .fold(0.0, f64::max);
+            let size = y.iter().map(|v| v.abs()).fold(0.0, f64::max);
+            assert!(
+                err <= 1e-8 * size,
+                "solutions differ by {err:.2e} of {size:.2e}"
+            );
+            assert_eq!(sub.last_polish_iterations(), 0, "exact up to round-off");
+        }
+        // a change outside the band is noticed
+        let mut far = chain(n, 2.0, range);
+        far.add(3, 3, 1.0);
+        assert!(!sub.fits(&far));
+    }
+}

@@ -1,0 +1,131 @@
+//! The flow solve by substructuring ([`FlowFactorization::Band`]): the matrix changes from step
+//! to step only near the particles (their reach, where elements may be cut, and the elements
+//! whose coordinates may move), so a band around them is factored every step and the far field
+//! once per placement of the band ([`Substructured`]). The band is the elements that change
+//! widened by [`BAND_MARGIN`] rings, so that no dof of a changing element (or ghost-penalty
+//! face) lies on the band's boundary; a new placement is made whenever the far field's entries
+//! differ (bitwise) from those it was factored with — after a pattern rebuild or a moved mesh
+//! outside the band.
+
+use std::time::Instant;
+
+use super::cache::{assembled_each_step, dilate};
+use super::dofs::{element_dofs, MAX_EL_DOFS};
+use super::{FlowFactorization, Stokes, RESIDUAL_TOL};
+use crate::fem::linsolve::SolveError;
+use crate::fem::substructure::Substructured;
+
+/// Rings of elements added around the elements that may change: one for the ghost-penalty
+/// faces next to them (which couple the neighbouring element), one so that the band's boundary
+/// dofs belong to unchanged elements only.
+const BAND_MARGIN: usize = 2;
+
+/// Largest fraction of the elements in the band for which substructuring pays (beyond it the
+/// band's own factorization costs about what the whole one does, and the far field's is extra):
+/// a larger band falls back to [`FlowFactorization::Whole`].
+pub const BAND_FRACTION_LIMIT: f64 = 0.5;
+
+/// Seconds of one factor-and-solve, by phase.
+pub(super) struct SolveTimes {
+    /// New placement: split, far-field factorization and condensation, band analysis.
+    pub placement: f64,
+    /// Numeric factorization (the band's, or the whole matrix's).
+    pub numeric: f64,
+    /// Triangular solves, residual check, polishing.
+    pub solve: f64,
+}
+
+impl Stokes {
+    /// Factors (when the values changed) and solves the assembled system with the band solver;
+    /// `None` when there is no band to speak of (no particles, nothing moves, or the band holds
+    /// more than [`BAND_FRACTION_LIMIT`] of the elements) or the band solver failed (counted in
+    /// `band_fallbacks`): the caller factors the whole matrix.
+    pub(super) fn solve_by_band(&mut self) -> Result<Option<(f64, SolveTimes)>, SolveError> {
+        debug_assert_eq!(self.params.factorization, FlowFactorization::Band);
+        let t0 = Instant::now();
+        if self
+            .band_solver
+            .as_ref()
+            .is_none_or(|s| !s.fits(&self.matrix))
+        {
+            // the values last factored are the band's (if it was in use) or the whole matrix's
+            if self.band_solver.take().is_some() {
+                self.factored_values = None;
+            }
+            let Some(band) = self.band_dofs() else {
+                return Ok(None);
+            };
+            self.factored_values = None;
+            let placed = self
+                .dof_blocks()
+                .elimination_order(&self.matrix)
+                .and_then(|order| Substructured::new(&self.matrix, &band, &order));
+            match placed {
+                Ok(solver) => self.band_solver = Some(solver),
+                Err(_) => {
+                    // the whole matrix then, until the band moves
+                    self.band_fallbacks += 1;
+                    return Ok(None);
+                }
+            }
+            self.placements += 1;
+        }
+        let t1 = Instant::now();
+        let solver = self.band_solver.as_mut().expect("placed above");
+        let unchanged = self.factored_values.as_deref() == Some(self.matrix.values.as_slice());
+        let solved = (if unchanged {
+            Ok(())
+        } else {
+            solver.factor(&self.matrix)
+        })
+        .map(|()| Instant::now())
+        .and_then(|t2| {
+            solver
+                .solve_checked(&self.matrix, &self.rhs, &mut self.sol, RESIDUAL_TOL)
+                .map(|res| (t2, res))
+        });
+        let Ok((t2, residual)) = solved else {
+            // a band the factorization cannot take (the whole matrix pivots across it)
+            self.band_solver = None;
+            self.factored_values = None;
+            self.band_fallbacks += 1;
+            return Ok(None);
+        };
+        if !unchanged {
+            self.factored_values = Some(self.matrix.values.clone());
+            self.refactorizations += 1;
+        }
+        let times = SolveTimes {
+            placement: (t1 - t0).as_secs_f64(),
+            numeric: (t2 - t1).as_secs_f64(),
+            solve: t2.elapsed().as_secs_f64(),
+        };
+        Ok(Some((residual, times)))
+    }
+
+    /// The dofs of the band (per dof), or `None` if it is empty or too large.
+    fn band_dofs(&self) -> Option<Vec<bool>> {
+        let n_el = self.mesh.n_elements();
+        let changing: Vec<bool> = (0..n_el)
+            .map(|e| assembled_each_step(&self.reach, &self.moving, e))
+            .collect();
+        let band = dilate(&changing, self.mesh.dims(), self.mesh.periodic, BAND_MARGIN);
+        let count = band.iter().filter(|&&b| b).count();
+        if count == 0 || count as f64 > BAND_FRACTION_LIMIT * n_el as f64 {
+            return None;
+        }
+        let lay = self.layout;
+        let mut dofs = vec![false; lay.n_dofs()];
+        let mut el = Vec::with_capacity(MAX_EL_DOFS);
+        for e in (0..n_el).filter(|&e| band[e]) {
+            element_dofs(&self.mesh, &lay, e, &mut el);
+            el.iter().for_each(|&d| dofs[d] = true);
+        }
+        for i in 0..lay.n_particles {
+            for c in 0..3 {
+                dofs[lay.rigid(i, c)] = true;
+            }
+        }
+        Some(dofs)
+    }
+}
