@@ -75,6 +75,8 @@ pub struct Substructured {
     /// Position in A's values of each of M's values outside the Γ × Γ block.
     m_src: Vec<usize>,
     m_solver: DirectSolver,
+    /// Whether M is factored with its current values.
+    m_factored: bool,
     /// Work vectors in K and M numbering, and z_Γ.
     kb: Vec<f64>,
     mb: Vec<f64>,
@@ -160,6 +162,7 @@ impl Substructured {
             m,
             m_src,
             m_solver,
+            m_factored: false,
             last_polish: 0,
         })
     }
@@ -182,22 +185,27 @@ impl Substructured {
             .all(|(&p, &v)| a.values[p].to_bits() == v.to_bits())
     }
 
-    /// Factors M for `a`, which must [`fit`](Self::fits).
-    pub fn factor(&mut self, a: &SparseMatrix) -> Result<(), SolveError> {
+    /// Factors M for `a`, which must [`fit`](Self::fits), unless its values are those of the
+    /// last factorization; returns whether it factored.
+    pub fn factor(&mut self, a: &SparseMatrix) -> Result<bool, SolveError> {
         debug_assert!(self.fits(a), "the far field changed: make a new split");
         let ni = self.n_interior;
         let ng = self.m_dofs.len() - ni;
+        let first = !self.m_factored;
+        let mut changed = first;
         let mut src = self.m_src.iter();
         for j in 0..self.m_dofs.len() {
             let (rows, range) = self.m.column(j);
-            // the Γ × Γ block is S: the last ng rows of a Γ column
+            // the Γ × Γ block is S, the last ng rows of a Γ column: written once
             let dense = if j >= ni { ng } else { 0 };
             let sparse_len = rows.len() - dense;
             let vals = &mut self.m.values[range];
             for v in &mut vals[..sparse_len] {
-                *v = a.values[*src.next().expect("one source per entry")];
+                let new = a.values[*src.next().expect("one source per entry")];
+                changed |= v.to_bits() != new.to_bits();
+                *v = new;
             }
-            if dense > 0 {
+            if first && dense > 0 {
                 vals[sparse_len..].copy_from_slice(
                     self.schur
                         .col(j - ni)
@@ -207,11 +215,19 @@ impl Substructured {
                 );
             }
         }
-        self.m_solver.factor(&self.m)
+        if changed {
+            self.m_factored = false;
+            self.m_solver.factor(&self.m)?;
+            self.m_factored = true;
+        }
+        Ok(changed)
     }
 
     /// Solves A x = b in place for the last factored A (`rhs` holds b on entry, x on exit).
     pub fn solve_in_place(&mut self, rhs: &mut [f64]) -> Result<(), SolveError> {
+        if !self.m_factored {
+            return Err(SolveError::NotFactored);
+        }
         let (nf, ni) = (self.n_far, self.n_interior);
         let ng = self.z.len();
         // K [z_F; z_Γ] = [b_F; 0]
@@ -382,7 +398,8 @@ mod tests {
         for scale in [2.0, 1e-4, 50.0] {
             let a = chain(n, scale, range.clone());
             assert!(sub.fits(&a), "only the band changed");
-            sub.factor(&a).unwrap();
+            assert!(sub.factor(&a).unwrap(), "a new band");
+            assert!(!sub.factor(&a).unwrap(), "the same band");
             let mut x = vec![0.0; nd];
             let res = sub.solve_checked(&a, &b, &mut x, TOL).unwrap();
             assert!(res <= TOL, "residual {res:.2e} at band scale {scale}");

@@ -48,13 +48,11 @@ impl Stokes {
             .as_ref()
             .is_none_or(|s| !s.fits(&self.matrix))
         {
-            // the values last factored are the band's (if it was in use) or the whole matrix's
-            if self.band_solver.take().is_some() {
-                self.factored_values = None;
-            }
+            self.band_solver = None;
             let Some(band) = self.band_dofs() else {
                 return Ok(None);
             };
+            // the whole matrix's factorization is stale once the band solver takes over
             self.factored_values = None;
             let placed = self
                 .dof_blocks()
@@ -72,29 +70,21 @@ impl Stokes {
         }
         let t1 = Instant::now();
         let solver = self.band_solver.as_mut().expect("placed above");
-        let unchanged = self.factored_values.as_deref() == Some(self.matrix.values.as_slice());
-        let solved = (if unchanged {
-            Ok(())
-        } else {
-            solver.factor(&self.matrix)
-        })
-        .map(|()| Instant::now())
-        .and_then(|t2| {
+        // (M keeps the values it was factored with: the whole matrix's are not copied)
+        let solved = solver.factor(&self.matrix).and_then(|refactored| {
+            let t2 = Instant::now();
             solver
                 .solve_checked(&self.matrix, &self.rhs, &mut self.sol, RESIDUAL_TOL)
-                .map(|res| (t2, res))
+                .map(|res| (refactored, t2, res))
         });
-        let Ok((t2, residual)) = solved else {
+        let Ok((refactored, t2, residual)) = solved else {
             // a band the factorization cannot take (the whole matrix pivots across it)
             self.band_solver = None;
-            self.factored_values = None;
             self.band_fallbacks += 1;
             return Ok(None);
         };
-        if !unchanged {
-            self.factored_values = Some(self.matrix.values.clone());
-            self.refactorizations += 1;
-        }
+        self.refactorizations += usize::from(refactored);
+
         let times = SolveTimes {
             placement: (t1 - t0).as_secs_f64(),
             numeric: (t2 - t1).as_secs_f64(),
