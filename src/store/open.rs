@@ -80,6 +80,24 @@ fn kind(conn: &Connection, path: &Path) -> Result<Kind> {
     }
 }
 
+/// The WAL file of a database in WAL mode (exists while a connection has it open).
+fn wal_path(path: &Path) -> std::path::PathBuf {
+    let mut name = path.as_os_str().to_owned();
+    name.push("-wal");
+    name.into()
+}
+
+/// An SQLite URI opening `path` read-only and immutable (no locks, no -wal/-shm files).
+fn immutable_uri(path: &Path) -> String {
+    let full = full_path(path).to_string_lossy().into_owned();
+    // the characters a URI path must escape
+    let escaped = full
+        .replace('%', "%25")
+        .replace('?', "%3f")
+        .replace('#', "%23");
+    format!("file:{escaped}?mode=ro&immutable=1")
+}
+
 impl Store {
     /// Opens (creating if needed) the database at `path`, switches it to WAL mode and brings the
     /// schema up to [`schema::SCHEMA_VERSION`]: for the process that starts a sweep.
@@ -172,7 +190,17 @@ impl Store {
             source,
         };
         let flags = OpenFlags::SQLITE_OPEN_READ_ONLY | OpenFlags::SQLITE_OPEN_NO_MUTEX;
-        let conn = Connection::open_with_flags(path, flags).map_err(sql)?;
+        let conn = if wal_path(path).exists() {
+            // a writer has the database open (or was killed): read through its WAL index
+            Connection::open_with_flags(path, flags)
+        } else {
+            // no writer has it open: read the file as it is, so that a reader never creates the
+            // -wal and -shm files (on a read-only share it could not; elsewhere they would stay,
+            // owned by the reader). A sweep that starts during the read would have to checkpoint
+            // into the file within the query's milliseconds to disturb it.
+            Connection::open_with_flags(immutable_uri(path), flags | OpenFlags::SQLITE_OPEN_URI)
+        }
+        .map_err(sql)?;
         conn.busy_timeout(BUSY_TIMEOUT).map_err(sql)?;
         match kind(&conn, path)? {
             Kind::Xpflow => Ok(Store {

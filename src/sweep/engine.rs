@@ -149,22 +149,28 @@ pub fn run_sweep(
     let sweep_id = store.register_sweep(sweep)?;
     store.add_cases(sweep_id, cases)?;
     let reset = store.reset_interrupted(sweep_id, opts.retry_failed)?;
-    let pending: Vec<&PlannedCase> = {
-        let conn = store.connection();
-        let mut st = conn
+    // each case by its status now: pending ones are run, running ones (another process; those
+    // of a killed one were reset above) are left to it, the others are done
+    let mut pending: Vec<&PlannedCase> = Vec::new();
+    let mut running_elsewhere = Vec::new();
+    {
+        let err = |source| StoreError::Sql {
+            path: opts.db.clone(),
+            source,
+        };
+        let mut st = store
+            .connection()
             .prepare("SELECT status FROM cases WHERE case_hash = ?1")
-            .map_err(|source| StoreError::Sql {
-                path: opts.db.clone(),
-                source,
-            })?;
-        cases
-            .iter()
-            .filter(|c| {
-                st.query_row([&c.id], |r| r.get::<_, String>(0))
-                    .is_ok_and(|s| s == "pending")
-            })
-            .collect()
-    };
+            .map_err(err)?;
+        for c in cases {
+            let status: String = st.query_row([&c.id], |r| r.get(0)).map_err(err)?;
+            match status.as_str() {
+                "pending" => pending.push(c),
+                "running" => running_elsewhere.push(c),
+                _ => {}
+            }
+        }
+    }
     let jobs = opts.jobs.max(1).min(pending.len().max(1));
     let run_id = store.begin_run(sweep_id, jobs, &sweep.raw.to_string())?;
     let snapshot_dir = opts.snapshot_dir.clone().unwrap_or_else(|| {
@@ -174,6 +180,12 @@ pub fn run_sweep(
             .unwrap_or_else(|| PathBuf::from(&sweep.name))
     });
     let progress = Progress::new(opts.progress, pending.len());
+    for c in &running_elsewhere {
+        progress.log(&format!(
+            "running elsewhere: {} ({}) is being run by another process",
+            c.label, c.id
+        ));
+    }
     progress.log(&format!(
         "sweep {}: {} cases, {} to run ({} reset after interruption), {jobs} at a time, database {}",
         sweep.name,
@@ -237,7 +249,8 @@ pub fn run_sweep(
             }
         }
     }
-    summary.skipped += cases.len() - pending.len();
+    summary.elsewhere += running_elsewhere.len();
+    summary.skipped += cases.len() - pending.len() - running_elsewhere.len();
     Ok(summary)
 }
 

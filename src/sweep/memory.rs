@@ -40,7 +40,12 @@ pub fn gb(bytes: f64) -> String {
 /// # Errors
 /// The estimate and what is available, as the error of a failed case.
 pub fn fits(case: &CaseSpec) -> Result<(), String> {
-    let (need, free) = (case.memory_estimate(), available());
+    fits_in(case, available())
+}
+
+/// `Ok` if `case`'s estimated memory is at most `free` bytes; otherwise why not.
+fn fits_in(case: &CaseSpec, free: f64) -> Result<(), String> {
+    let need = case.memory_estimate();
     if need > free {
         let [n1, n2] = case.numerics.mesh;
         return Err(format!(
@@ -51,4 +56,28 @@ pub fn fits(case: &CaseSpec) -> Result<(), String> {
         ));
     }
     Ok(())
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    /// A case that needs more than is free is refused with both figures, before it allocates
+    /// (an allocation that fails aborts the process: issue 28, exit 134 with the case left
+    /// `running` and the rest of the sweep never run).
+    #[test]
+    fn a_case_larger_than_the_free_memory_is_not_started() {
+        let case = CaseSpec::from_value(serde_json::json!({
+            "geometry": {"confined_shear": {"h": 1.0, "l": 4.0}},
+            "fluid": {"model": "giesekus", "wi": 1.0, "alpha": 0.01, "beta": 0.1},
+            "particles": {"radius": 0.1, "layout": {"string": {"n": 2, "lx": 0.5, "ly": 0.1}}},
+            "numerics": {"mesh": [400, 100], "dt": 0.01, "t_end": 1.0}
+        }))
+        .unwrap();
+        let need = case.memory_estimate();
+        assert!(fits_in(&case, 2.0 * need).is_ok());
+        let e = fits_in(&case, 0.5 * need).unwrap_err();
+        assert!(e.contains("400×100") && e.contains("GB"), "{e}");
+        assert_eq!(gb(f64::INFINITY), "unlimited");
+    }
 }
