@@ -61,7 +61,10 @@ pub(super) fn run_case(path: &std::path::Path, resolved: bool) -> anyhow::Result
     let store = Store::open(&db)?;
     let table = store.query(&QueryKind::Trajectory(cases[0].id.clone()), None, &[])?;
     let csv = std::path::Path::new("results").join(format!("{name}.csv"));
-    std::fs::write(&csv, table.render(Format::Csv))?;
+    std::fs::write(&csv, table.render(Format::Csv)).map_err(|e| {
+        let full = std::path::absolute(&csv).unwrap_or_else(|_| csv.clone());
+        anyhow::anyhow!("{}: {e}", full.display())
+    })?;
     let outcome = store.query(&QueryKind::Cases, None, &[])?;
     print!("{}", outcome.render(Format::Table));
     println!(

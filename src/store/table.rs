@@ -58,7 +58,7 @@ const PLAIN_RANGE: std::ops::Range<f64> = 1e-4..1e15;
 
 /// `x` rounded to `digits` significant digits, in the shortest form that shows them (trailing
 /// zeros dropped: 8.109970490496691 → 8.11 at 4 digits, 1/6 → 0.1667, 2.0 → 2); an exponent
-/// outside [`PLAIN_RANGE`] (1.5e-5).
+/// below 1e-4 and from 1e15 on (1.5e-5).
 pub fn round_sig(x: f64, digits: usize) -> String {
     if !x.is_finite() || x == 0.0 {
         return if x == 0.0 { "0".into() } else { x.to_string() };
