@@ -22,7 +22,7 @@ pub use case::{
     Numerics, Output, Particles, Stop, StressCoupling, DEFAULT_QUADTREE_LEVEL,
 };
 pub use error::{ConfigError, SpecError};
-pub use limits::{MAX_ELEMENTS_PER_STEP, MAX_MESH_ELEMENTS};
+pub use limits::{MAX_ELEMENTS_PER_STEP, MAX_MESH_ELEMENTS, MAX_RADII_PER_STEP};
 pub use sweep_file::{Axis, PlannedCase, SweepSpec};
 pub use text::parse as parse_text;
 pub use validate::MAX_DT_OVER_LAMBDA;

@@ -358,6 +358,16 @@ fn a_step_across_more_than_one_element_is_refused() {
         field_of(set(moving, "/numerics/dt", json!(0.6 * edge))),
         "numerics.dt"
     );
+    // without polymer (no history on the mesh) half a radius per step: the two-particle
+    // validation (240×60, Δt = 0.1, l_y = 0.1: 1.2 elements, 0.2 radii per step) runs
+    let stokes = |dt: f64| {
+        let mut v = set(shear(), "/numerics/mesh", json!([240, 60]));
+        v["fluid"] = json!({"model": "newtonian", "wi": 0.0});
+        set(v, "/numerics/dt", json!(dt))
+    };
+    assert!(CaseSpec::from_value(stokes(0.1)).is_ok());
+    let err = CaseSpec::from_value(stokes(0.3)).unwrap_err();
+    assert!(err.message.contains("radii per step"), "{}", err.message);
     // Couette, r0 = 2.5: u_θ = 0.26 plus the rim 0.1 over arcs of 2π·2.5/160: Δt ≤ 0.273
     assert!(CaseSpec::from_value(set(couette(), "/numerics/dt", json!(0.27))).is_ok());
     assert_eq!(
