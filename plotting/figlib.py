@@ -4,7 +4,7 @@ Reads a results database (schema in src/store/schema.rs, documented in docs/swee
 sqlite3 module, turns stored quantities into the thesis' dimensionless ones, groups cases into families
 (curves that differ in one parameter, drawn in one panel), and saves figures as PNG + PDF. Every figure
 function takes a `Figures` context (database, output directory, log) and never raises for missing data: it
-prints what is missing and, when nothing can be drawn, saves a figure that says so.
+prints what is missing and, when nothing can be drawn, writes no figure and lists it as missing in index.md.
 
 Scalings (thesis):
   confined shear (5.6-5.7): γ̇ = U_w/H, t* = tγ̇, U* = U/(Hγ̇), V* = V/(Hγ̇), ω* = ω/γ̇ (clockwise positive).
@@ -13,6 +13,7 @@ Scalings (thesis):
 
 from __future__ import annotations
 
+import glob
 import json
 import math
 import textwrap
@@ -293,9 +294,10 @@ class Figures:
         self.out = out
         self.written: list[str] = []
         self.notes: list[str] = []
-        os.makedirs(out, exist_ok=True)
         self.con = connect(db)
         self.missing_schema = missing_tables(self.con)
+        if not self.missing_schema:
+            os.makedirs(out, exist_ok=True)
         self._cases: list[Case] | None = None
 
     def log(self, msg: str) -> None:
@@ -347,13 +349,14 @@ class Figures:
         return paths
 
     def empty(self, name: str, title: str, message: str) -> list[str]:
-        """A figure that only says what is missing (also printed)."""
-        self.log(f"{name}: {message}")
-        fig = plt.figure(figsize=(8, 4.5), layout="constrained")
-        fig.suptitle(title)
-        fig.text(0.5, 0.5, "Nothing to plot yet:\n" + message, ha="center", va="center", wrap=True,
-                 fontsize=11, color="0.25", bbox=dict(boxstyle="round", fc="0.95", ec="0.6"))
-        return self.save(fig, name)
+        """Records that figure `name` has nothing to plot: printed and listed under "Missing or left
+        out" in index.md; no file is written (an empty figure looks like a result)."""
+        self.log(f"{name} not written ({title}): {message}")
+        # a figure of an earlier run into the same directory would contradict the index
+        for stale in glob.glob(os.path.join(glob.escape(self.out), f"{glob.escape(name)}.*")) + glob.glob(
+                os.path.join(glob.escape(self.out), f"{glob.escape(name)}_p[0-9]*.*")):
+            os.remove(stale)
+        return []
 
     def write_text(self, name: str, text: str) -> str:
         p = os.path.join(self.out, name)
@@ -365,17 +368,24 @@ class Figures:
         return p
 
 
+class NotADatabase(Exception):
+    """The file is not an SQLite database (or cannot be read as one)."""
+
+
 def connect(db: str) -> sqlite3.Connection:
-    """Opens the database read-only (falls back to a normal connection, e.g. a WAL file without -shm)."""
+    """Opens the database read-only, as `xpflow query` does (src/store/open.rs): a reader never writes,
+    never creates the -wal/-shm files (immutable when no writer has the database open, i.e. no -wal
+    file), and works on a read-only share. Raises NotADatabase for a file that is not SQLite."""
     if not os.path.exists(db):
         raise FileNotFoundError(f"database {db} does not exist")
-    uri = "file:" + urllib.parse.quote(os.path.abspath(db)) + "?mode=ro"
+    mode = "mode=ro" if os.path.exists(db + "-wal") else "mode=ro&immutable=1"
+    uri = "file:" + urllib.parse.quote(os.path.abspath(db)) + "?" + mode
     try:
         con = sqlite3.connect(uri, uri=True)
         con.execute("SELECT name FROM sqlite_master LIMIT 1").fetchall()
         return con
-    except sqlite3.Error:
-        return sqlite3.connect(db)
+    except sqlite3.Error as e:
+        raise NotADatabase(f"{db} is not an SQLite database ({e})") from e
 
 
 def missing_tables(con: sqlite3.Connection) -> list[str]:

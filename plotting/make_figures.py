@@ -4,8 +4,7 @@
 
 Without DB arguments it uses every results/*.db. The outputs of database `NAME.db` go to `OUT/NAME/`
 (PNG + PDF per figure, Markdown tables under `tables/`, and `index.md` listing the files and what is
-missing). A figure whose data is missing is still made and says what is missing (the snapshot figure is
-skipped with a message when there is no snapshot). Exit code 0 when every script ran, 1 when a script
+missing). A figure without data is not written: the log and the index say what is missing. Exit code 0 when every script ran, 1 when a script
 failed (the others still run; the traceback is printed), 2 for a missing or non-xpflow database.
 `make figures [DB=results/demo.db]` runs this with the Python of `.venv/` (see docs/figures.md).
 """
@@ -44,7 +43,11 @@ def run_database(db: str, out_root: str, scripts: list[str]) -> int:
     name = os.path.splitext(os.path.basename(db))[0]
     out = os.path.join(out_root, name)
     print(f"{db} -> {out}/", flush=True)
-    f = figlib.Figures(db, out)
+    try:
+        f = figlib.Figures(db, out)
+    except figlib.NotADatabase as e:
+        print(f"  {e}", file=sys.stderr)
+        return -1
     if f.missing_schema:
         print(f"  {db} is not an xpflow results database (missing tables: {', '.join(f.missing_schema)})",
               file=sys.stderr)
@@ -109,7 +112,11 @@ def run_one(script_main) -> None:
     db = sys.argv[1]
     out = sys.argv[2] if len(sys.argv) == 3 else os.path.join(
         "results", "figures", os.path.splitext(os.path.basename(db))[0])
-    f = figlib.Figures(db, out)
+    try:
+        f = figlib.Figures(db, out)
+    except figlib.NotADatabase as e:
+        print(str(e), file=sys.stderr)
+        sys.exit(2)
     if f.missing_schema:
         print(f"{db} is not an xpflow results database (missing {', '.join(f.missing_schema)})", file=sys.stderr)
         sys.exit(2)

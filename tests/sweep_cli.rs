@@ -29,6 +29,8 @@ fn args(file: &Path, db: &Path) -> SweepArgs {
         quiet: true,
         retry_failed: false,
         state_every: 5.0,
+        max_memory: None,
+        max_cases: xpflow::sweep::expand::DEFAULT_MAX_CASES,
     }
 }
 

@@ -57,8 +57,24 @@ pub fn main_with_args() -> ExitCode {
     match run(cli) {
         Ok(code) => code,
         Err(e) => {
-            eprintln!("xpflow: error: {e:#}");
+            eprintln!("xpflow: error: {}", message(&e));
             ExitCode::FAILURE
         }
     }
+}
+
+/// The error and its causes on one line, each cause once: errors that already show their source
+/// in their own text (`database X: file is not a database`) are not repeated by the chain.
+fn message(e: &anyhow::Error) -> String {
+    let mut text = String::new();
+    for cause in e.chain() {
+        let s = cause.to_string();
+        if !text.contains(&s) {
+            if !text.is_empty() {
+                text += ": ";
+            }
+            text += &s;
+        }
+    }
+    text
 }

@@ -14,21 +14,11 @@ pub(super) fn run_case(path: &std::path::Path, resolved: bool) -> anyhow::Result
     let is_json = path
         .extension()
         .is_some_and(|e| e.eq_ignore_ascii_case("json"));
-    let base: serde_json::Value = if is_json {
-        match serde_json::from_str(&text) {
-            Ok(v) => v,
-            Err(e) => {
-                eprintln!("error: {}: JSON: {e}", path.display());
-                return Ok(ExitCode::from(2));
-            }
-        }
-    } else {
-        match toml::from_str::<toml::Table>(&text) {
-            Ok(t) => serde_json::to_value(t)?,
-            Err(e) => {
-                eprintln!("error: {}: TOML: {e}", path.display());
-                return Ok(ExitCode::from(2));
-            }
+    let base = match crate::config::parse_text(&text, is_json, path) {
+        Ok(v) => v,
+        Err(e) => {
+            eprintln!("error: {e}");
+            return Ok(ExitCode::from(2));
         }
     };
     let name = path
@@ -71,7 +61,10 @@ pub(super) fn run_case(path: &std::path::Path, resolved: bool) -> anyhow::Result
     let store = Store::open(&db)?;
     let table = store.query(&QueryKind::Trajectory(cases[0].id.clone()), None, &[])?;
     let csv = std::path::Path::new("results").join(format!("{name}.csv"));
-    std::fs::write(&csv, table.render(Format::Csv))?;
+    std::fs::write(&csv, table.render(Format::Csv)).map_err(|e| {
+        let full = std::path::absolute(&csv).unwrap_or_else(|_| csv.clone());
+        anyhow::anyhow!("{}: {e}", full.display())
+    })?;
     let outcome = store.query(&QueryKind::Cases, None, &[])?;
     print!("{}", outcome.render(Format::Table));
     println!(

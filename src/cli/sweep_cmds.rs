@@ -1,7 +1,9 @@
 //! Sweep, query and status subcommands: clap argument structs and handlers that wrap the library.
 //!
-//! Exit codes: 0 success; 1 the sweep ran but some cases failed, or a runtime error; 2 the sweep file or
-//! a query is invalid, or the solver cannot run a case — in which case nothing is written.
+//! Exit codes: 0 success; 1 the sweep ran but some cases failed (their snapshots or saved states
+//! could not be written included), or a runtime error (the database deleted during the sweep); 2 the
+//! input is invalid — the sweep file, a case the solver cannot run or that needs more memory than
+//! allowed, a query, a database that is missing or not xpflow's — in which case nothing is written.
 
 use std::io::Write;
 use std::path::{Path, PathBuf};
@@ -13,8 +15,9 @@ use crate::config::SweepSpec;
 use crate::store::query::{Filter, QueryKind, FILTER_COLUMNS};
 use crate::store::{Format, Store, Table};
 use crate::sweep::engine::SweepError;
+use crate::sweep::expand::expand_at_most;
 use crate::sweep::progress::ProgressMode;
-use crate::sweep::{default_runner, expand, CaseRunner, SweepOptions};
+use crate::sweep::{default_runner, CaseRunner, SweepOptions};
 
 /// Exit code of invalid input (sweep file, query) — nothing was written.
 const EXIT_INVALID: u8 = 2;
@@ -28,7 +31,7 @@ pub struct SweepArgs {
     #[arg(long)]
     pub db: Option<PathBuf>,
     /// Cases run at once [default: number of cores].
-    #[arg(long)]
+    #[arg(long, value_parser = at_least_one)]
     pub jobs: Option<usize>,
     /// List the expanded cases with their ids and exit.
     #[arg(long)]
@@ -44,8 +47,40 @@ pub struct SweepArgs {
     pub retry_failed: bool,
     /// Minutes between saved solver states of a running case: a killed case continues from its
     /// last one (0: after every step).
-    #[arg(long, default_value_t = 5.0)]
+    #[arg(long, default_value_t = 5.0, value_parser = minutes)]
     pub state_every: f64,
+    /// Largest estimated memory of one case, in GB: a sweep with a larger case is refused before
+    /// anything runs [default: the machine's physical memory].
+    #[arg(long, value_parser = gigabytes)]
+    pub max_memory: Option<f64>,
+    /// Most cases a sweep file may expand to [default: 100000].
+    #[arg(long, default_value_t = crate::sweep::expand::DEFAULT_MAX_CASES, value_parser = at_least_one)]
+    pub max_cases: usize,
+}
+
+/// A count ≥ 1 (`--jobs`, `--max-cases`).
+fn at_least_one(s: &str) -> Result<usize, String> {
+    match s.parse::<usize>() {
+        Ok(n) if n >= 1 => Ok(n),
+        Ok(_) => Err("must be at least 1".into()),
+        Err(e) => Err(format!("`{s}` is not a whole number: {e}")),
+    }
+}
+
+/// Minutes ≥ 0, finite (`--state-every`).
+fn minutes(s: &str) -> Result<f64, String> {
+    match s.parse::<f64>() {
+        Ok(m) if m.is_finite() && m >= 0.0 => Ok(m),
+        _ => Err(format!("`{s}` is not a number of minutes ≥ 0")),
+    }
+}
+
+/// Gigabytes > 0, finite (`--max-memory`).
+fn gigabytes(s: &str) -> Result<f64, String> {
+    match s.parse::<f64>() {
+        Ok(g) if g.is_finite() && g > 0.0 => Ok(g),
+        _ => Err(format!("`{s}` is not a number of gigabytes > 0")),
+    }
 }
 
 /// What `xpflow query` tabulates.
@@ -116,7 +151,7 @@ pub fn run_sweep_with(
         Ok(s) => s,
         Err(e) => return invalid(&e),
     };
-    let cases = match expand(&spec) {
+    let cases = match expand_at_most(&spec, args.max_cases) {
         Ok(c) => c,
         Err(e) => return invalid(&e),
     };
@@ -152,17 +187,26 @@ pub fn run_sweep_with(
         .unwrap_or_else(|| Path::new("results").join(format!("{}.db", spec.name)));
     let mut opts = SweepOptions::new(db);
     if let Some(j) = args.jobs {
-        opts.jobs = j.max(1);
+        opts.jobs = j;
     }
     opts.retry_failed = args.retry_failed;
-    opts.state_every = std::time::Duration::from_secs_f64(args.state_every.max(0.0) * 60.0);
+    opts.state_every = std::time::Duration::from_secs_f64(args.state_every * 60.0);
     opts.progress = ProgressMode::detect(args.quiet);
+    if let Some(gb) = args.max_memory {
+        opts.max_case_memory = gb * 1e9;
+    }
     match crate::sweep::run_sweep(&spec, &cases, runner, &opts) {
         Ok(summary) => {
             if !args.quiet {
+                let elsewhere = if summary.elsewhere > 0 {
+                    format!(", {} running elsewhere", summary.elsewhere)
+                } else {
+                    String::new()
+                };
                 writeln!(
                     out,
-                    "sweep {}: {} cases, {} run, {} failed, {} skipped; results in {}",
+                    "sweep {}: {} cases, {} run, {} failed, {} skipped (done before){elsewhere}; \
+                     results in {}",
                     spec.name,
                     summary.total,
                     summary.ran,
@@ -177,10 +221,11 @@ pub fn run_sweep_with(
                 ExitCode::SUCCESS
             })
         }
-        Err(e @ SweepError::Unsupported { .. }) => {
+        Err(e @ (SweepError::Unsupported { .. } | SweepError::TooLarge { .. })) => {
             eprintln!("error: {}: {e}; nothing was run", args.file.display());
             Ok(ExitCode::from(EXIT_INVALID))
         }
+        Err(SweepError::Store(e)) if e.is_bad_input() => invalid(&e),
         Err(e) => Err(e).context(format!("sweep {}", spec.name)),
     }
 }
@@ -222,16 +267,18 @@ pub fn run_query_to(args: &QueryArgs, out: &mut dyn Write) -> anyhow::Result<Exi
             None => return invalid(&"trajectory needs --case ID (see `xpflow query cases`)"),
         },
     };
-    if !args.db.exists() {
-        return invalid(&format!("database {} does not exist", args.db.display()));
-    }
-    let store = Store::open(&args.db)?;
+    // a reader: read-only, never creates or changes the file
+    let store = match Store::open_read_only(&args.db) {
+        Ok(s) => s,
+        Err(e) if e.is_bad_input() => return invalid(&e),
+        Err(e) => return Err(e.into()),
+    };
     match store.query(&kind, args.sweep.as_deref(), &filters) {
         Ok(t) => {
             write!(out, "{}", t.render(args.format))?;
             Ok(ExitCode::SUCCESS)
         }
-        Err(e @ crate::store::StoreError::BadQuery(_)) => invalid(&e),
+        Err(e) if e.is_bad_input() => invalid(&e),
         Err(e) => Err(e.into()),
     }
 }
@@ -266,10 +313,12 @@ pub fn run_status_to(args: &StatusArgs, out: &mut dyn Write) -> anyhow::Result<E
         rows: Vec::new(),
     };
     for db in &dbs {
-        if !db.exists() {
-            return invalid(&format!("database {} does not exist", db.display()));
-        }
-        let store = Store::open(db)?;
+        // a reader: read-only, never creates or changes the file
+        let store = match Store::open_read_only(db) {
+            Ok(s) => s,
+            Err(e) if e.is_bad_input() => return invalid(&e),
+            Err(e) => return Err(e.into()),
+        };
         running.extend(store.running_cases()?.into_iter().map(|c| (db, c)));
         for c in store.counts(None)? {
             t.rows.push(vec![

@@ -12,7 +12,9 @@
 
 mod case;
 mod error;
+mod limits;
 mod sweep_file;
+mod text;
 mod validate;
 
 pub use case::{
@@ -20,7 +22,9 @@ pub use case::{
     Numerics, Output, Particles, Stop, StressCoupling, DEFAULT_QUADTREE_LEVEL,
 };
 pub use error::{ConfigError, SpecError};
+pub use limits::{MAX_ELEMENTS_PER_STEP, MAX_MESH_ELEMENTS, MAX_RADII_PER_STEP};
 pub use sweep_file::{Axis, PlannedCase, SweepSpec};
+pub use text::parse as parse_text;
 pub use validate::MAX_DT_OVER_LAMBDA;
 
 #[cfg(test)]

@@ -73,24 +73,7 @@ impl SweepSpec {
 
     /// Parses sweep text; `file` is used in messages only.
     pub fn from_str(text: &str, is_json: bool, file: &Path) -> Result<SweepSpec, ConfigError> {
-        let raw: Value = if is_json {
-            serde_json::from_str(text).map_err(|e| ConfigError::Syntax {
-                file: file.to_path_buf(),
-                format: "JSON",
-                message: e.to_string(),
-            })?
-        } else {
-            let table: toml::Table = toml::from_str(text).map_err(|e| ConfigError::Syntax {
-                file: file.to_path_buf(),
-                format: "TOML",
-                message: e.to_string(),
-            })?;
-            serde_json::to_value(table).map_err(|e| ConfigError::Syntax {
-                file: file.to_path_buf(),
-                format: "TOML",
-                message: e.to_string(),
-            })?
-        };
+        let raw = super::text::parse(text, is_json, file)?;
         Self::from_value(raw, file)
     }
 
@@ -117,7 +100,11 @@ impl SweepSpec {
             Some(Value::String(s)) => {
                 return Err(err(
                     "name",
-                    format!("`{s}` may only use letters, digits, `_`, `-` and `.`"),
+                    format!(
+                        "`{s}` may only use letters, digits, `_`, `-` and `.`, start with a \
+                         letter, digit or `_`, and have at most {MAX_NAME_CHARS} characters \
+                         (it names files: results/<name>.db, results/<name>/)"
+                    ),
                 ));
             }
             Some(v) => return Err(err("name", format!("invalid type: {v}, expected a string"))),
@@ -217,8 +204,14 @@ impl SweepSpec {
     }
 }
 
+/// Longest sweep name (it is a file name, with `.db` appended).
+const MAX_NAME_CHARS: usize = 100;
+
+/// A name that is one safe path component: letters, digits, `_`, `-`, `.`, not starting with `.`
+/// or `-` (so never `.`, `..`, a hidden file or an option).
 fn is_valid_name(s: &str) -> bool {
-    !s.is_empty()
+    s.len() <= MAX_NAME_CHARS
+        && s.starts_with(|c: char| c.is_ascii_alphanumeric() || c == '_')
         && s.chars()
             .all(|c| c.is_ascii_alphanumeric() || matches!(c, '_' | '-' | '.'))
 }
@@ -371,6 +364,12 @@ mod tests {
         assert_eq!(e.field(), Some("zip[0].b"));
         let e = parse("name = \"a b\"\n[base]").unwrap_err();
         assert_eq!(e.field(), Some("name"));
+        // a name is one safe path component (issue 28: ".." wrote outside results/)
+        for bad in ["..", ".", ".hidden", "-x", ""] {
+            let e = parse(&format!("name = \"{bad}\"\n[base]")).unwrap_err();
+            assert_eq!(e.field(), Some("name"), "{bad}: {e}");
+        }
+        assert!(parse("name = \"a.b-c_1\"\n[base]").is_ok());
         let e = parse("name = \"x\"\n[base]\n[axes]\nw = { start = 0, stop = 1, step = -1 }")
             .unwrap_err();
         assert_eq!(e.field(), Some("axes.w"));

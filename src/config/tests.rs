@@ -119,9 +119,11 @@ fn impossible_physics_is_rejected() {
     // of the Gear scheme diverges
     let lambda = CaseSpec::from_value(shear()).unwrap().relaxation_time();
     let edge = MAX_DT_OVER_LAMBDA * lambda;
-    let fine = set(shear(), "/numerics/dt", json!(edge));
+    // (on a mesh coarse enough for the wall to cross less than an element per step)
+    let coarse = || set(shear(), "/numerics/mesh", json!([4, 10]));
+    let fine = set(coarse(), "/numerics/dt", json!(edge));
     assert!(CaseSpec::from_value(fine).is_ok());
-    let too_long = set(shear(), "/numerics/dt", json!(1.01 * edge));
+    let too_long = set(coarse(), "/numerics/dt", json!(1.01 * edge));
     let err = CaseSpec::from_value(too_long).expect_err("Δt > λ/2");
     assert_eq!(err.field, "numerics.dt");
     assert!(err.message.contains("λ"), "{}", err.message);
@@ -323,4 +325,101 @@ fn meshes_smaller_than_the_remap_stencil_are_refused() {
 fn set_remap(mut v: Value, remap: &str) -> Value {
     v["numerics"]["remap"] = json!(remap);
     v
+}
+
+/// A time step that carries a particle across more than one element is refused, naming the
+/// largest Δt that is not (issue 28: Wi = 50, Δt = 20 passed the λ/2 rule and gave a particle at
+/// y = −0.94 in a channel of half-height 0.5). The speed is the particle's over the mesh (a frame
+/// moving with the flow counts) plus its rim γ̇a; in the Couette cell the arc at its radius.
+#[test]
+fn a_step_across_more_than_one_element_is_refused() {
+    // 440 elements along L = 4 (h = 1/110); the top particle at y = 0.1 moves at 0.1, its rim
+    // at γ̇a = 0.1 more: one element in Δt = 1/22
+    let edge = 1.0 / 22.0;
+    assert!(CaseSpec::from_value(set(shear(), "/numerics/dt", json!(0.99 * edge))).is_ok());
+    let err = CaseSpec::from_value(set(shear(), "/numerics/dt", json!(1.01 * edge))).unwrap_err();
+    assert_eq!(err.field, "numerics.dt");
+    assert!(err.message.contains("dt ≤ 0.0455"), "{}", err.message);
+    // the issue's case: Wi = 50, Δt = 20 on the demo mesh (160 elements per step)
+    let wild = set(
+        set(
+            set(shear(), "/fluid/wi", json!(50.0)),
+            "/numerics/dt",
+            json!(20.0),
+        ),
+        "/numerics/mesh",
+        json!([160, 40]),
+    );
+    assert_eq!(field_of(wild), "numerics.dt");
+    // a frame moving at U_f = 0.5 carries the bottom particle at 0.6 over the mesh
+    let mut moving = shear();
+    moving["numerics"]["frame_velocity"] = json!(0.5);
+    assert_eq!(
+        field_of(set(moving, "/numerics/dt", json!(0.6 * edge))),
+        "numerics.dt"
+    );
+    // without polymer (no history on the mesh) half a radius per step: the two-particle
+    // validation (240×60, Δt = 0.1, l_y = 0.1: 1.2 elements, 0.2 radii per step) runs
+    let stokes = |dt: f64| {
+        let mut v = set(shear(), "/numerics/mesh", json!([240, 60]));
+        v["fluid"] = json!({"model": "newtonian", "wi": 0.0});
+        set(v, "/numerics/dt", json!(dt))
+    };
+    assert!(CaseSpec::from_value(stokes(0.1)).is_ok());
+    let err = CaseSpec::from_value(stokes(0.3)).unwrap_err();
+    assert!(err.message.contains("radii per step"), "{}", err.message);
+    // Couette, r0 = 2.5: u_θ = 0.26 plus the rim 0.1 over arcs of 2π·2.5/160: Δt ≤ 0.273
+    assert!(CaseSpec::from_value(set(couette(), "/numerics/dt", json!(0.27))).is_ok());
+    assert_eq!(
+        field_of(set(couette(), "/numerics/dt", json!(0.28))),
+        "numerics.dt"
+    );
+}
+
+/// A mesh is two whole element counts, said so by name, and no larger than MAX_MESH_ELEMENTS
+/// (issue 28: `[4e9, 10]` passed validation and aborted the sweep allocating 6.4 GB; three
+/// entries said "trailing characters").
+#[test]
+fn a_mesh_is_two_counts_of_bounded_size() {
+    for bad in [
+        json!([40, 10, 5]),
+        json!([40]),
+        json!([40.5, 10]),
+        json!("40x10"),
+    ] {
+        let err = CaseSpec::from_value(set(shear(), "/numerics/mesh", bad.clone())).unwrap_err();
+        assert_eq!(err.field, "numerics.mesh", "{bad}");
+        assert!(
+            err.message.contains("two element counts"),
+            "{}",
+            err.message
+        );
+    }
+    let huge = set(shear(), "/numerics/mesh", json!([4_000_000_000_u64, 10]));
+    let err = CaseSpec::from_value(huge).unwrap_err();
+    assert_eq!(err.field, "numerics.mesh");
+    assert!(err.message.contains("more than 1e7"), "{}", err.message);
+    // the estimate grows with the mesh and the coupling (measured: 1.79 GB explicit and 12.1 GB
+    // semi-implicit at 400×100)
+    let at = |coupling: &str| {
+        let v = set(shear(), "/numerics/mesh", json!([400, 100]));
+        let mut v = set(v, "/numerics/dt", json!(0.001));
+        v["numerics"]["coupling"] = json!(coupling);
+        v["fluid"]["beta"] = json!(if coupling == "semi_implicit" {
+            0.0
+        } else {
+            0.1
+        });
+        CaseSpec::from_value(v).unwrap().memory_estimate()
+    };
+    assert!(
+        (1.8e9..2.5e9).contains(&at("explicit")),
+        "{}",
+        at("explicit")
+    );
+    assert!(
+        (12e9..16e9).contains(&at("semi_implicit")),
+        "{}",
+        at("semi_implicit")
+    );
 }

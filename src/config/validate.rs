@@ -26,6 +26,7 @@ impl CaseSpec {
     /// (Couette) sets a = ε (R2 − R1)/2. The error names the field path and says what to change.
     pub fn from_value(mut value: Value) -> Result<CaseSpec, SpecError> {
         resolve_shorthands(&mut value)?;
+        check_mesh_shape(&value)?;
         // Deserialize from pretty text so that serde's line number locates the field.
         let pretty =
             serde_json::to_string_pretty(&value).map_err(|e| SpecError::new("", e.to_string()))?;
@@ -46,8 +47,10 @@ impl CaseSpec {
         self.validate_geometry()?;
         self.validate_fluid()?;
         self.validate_numerics()?;
+        self.validate_mesh_size()?;
         self.validate_time_step()?;
         self.validate_particles()?;
+        self.validate_distance_per_step()?;
         self.validate_follow_room()
     }
 
@@ -498,6 +501,24 @@ fn finite(field: &str, x: f64) -> Result<(), SpecError> {
             format!("must be a finite number (got {x})"),
         ))
     }
+}
+
+/// `numerics.mesh` is two whole numbers: said so by name (serde's message for three entries is
+/// "trailing characters").
+fn check_mesh_shape(value: &Value) -> Result<(), SpecError> {
+    let Some(mesh) = value.pointer("/numerics/mesh") else {
+        return Ok(());
+    };
+    let counts = mesh.as_array().filter(|m| m.len() == 2);
+    if counts.is_none_or(|m| m.iter().any(|n| n.as_u64().is_none())) {
+        return Err(SpecError::new(
+            "numerics.mesh",
+            format!(
+                "give two element counts [n1, n2] as whole numbers, e.g. [200, 50] (got {mesh})"
+            ),
+        ));
+    }
+    Ok(())
 }
 
 /// Replaces `geometry.confined_shear.delta` by `h` and `particles.eps` by `radius`.

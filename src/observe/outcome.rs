@@ -119,6 +119,9 @@ pub struct Classifier {
     chained_since: Option<f64>,
     last: Option<Sample>,
     decided: Option<Outcome>,
+    /// Why the step being decided diverged, when the reason is more than a non-finite state.
+    #[serde(skip)]
+    reason: Option<String>,
 }
 
 impl Classifier {
@@ -147,6 +150,7 @@ impl Classifier {
             chained_since: None,
             last: None,
             decided: None,
+            reason: None,
         }
     }
 
@@ -164,7 +168,8 @@ impl Classifier {
         let decision = self.decide(s);
         self.last = Some(s.clone());
         if let Some(kind) = decision {
-            let mut outcome = self.outcome(kind, s.t, None);
+            let reason = self.reason.take();
+            let mut outcome = self.outcome(kind, s.t, reason.as_deref());
             if kind == OutcomeKind::String {
                 outcome.final_state["steady"] = json!(true);
             }
@@ -231,6 +236,10 @@ impl Classifier {
         if !s.t.is_finite() || ps.iter().any(|p| !state_is_finite(p)) {
             return Some(OutcomeKind::Diverged);
         }
+        if let Some(reason) = self.outside(s) {
+            self.reason = Some(reason);
+            return Some(OutcomeKind::Diverged);
+        }
         let a = self.radius;
         let slack = CONTACT_OVERLAP * a;
         let wall = match self.geometry {
@@ -295,6 +304,35 @@ impl Classifier {
             }
         }
         None
+    }
+
+    /// Why a sample is impossible, if it is: a particle centre outside the domain (beyond a
+    /// wall of the channel, outside the Couette gap). No contact can put it there; a time step
+    /// that carried it across the wall did (issue 28: y = −0.94 with H/2 = 0.5 after one step).
+    fn outside(&self, s: &Sample) -> Option<String> {
+        s.particles
+            .iter()
+            .enumerate()
+            .find_map(|(i, p)| match self.geometry {
+                Geometry::ConfinedShear { h, .. } if p.y.abs() > h / 2.0 => Some(format!(
+                    "step {}: particle {i} at y = {:.6} is outside the channel (|y| > H/2 = {}): \
+                 an impossible state, the time step carried it through a wall",
+                    s.step,
+                    p.y,
+                    h / 2.0
+                )),
+                Geometry::Couette { r1, r2, .. } => {
+                    let r = p.x.hypot(p.y);
+                    (r < r1 || r > r2).then(|| {
+                        format!(
+                        "step {}: particle {i} at r = {r:.6} is outside the gap [{r1}, {r2}]: an \
+                         impossible state, the time step carried it through a cylinder",
+                        s.step
+                    )
+                    })
+                }
+                _ => None,
+            })
     }
 
     /// The scale of ω* in the final state: γ̇ in confined shear (thesis §5.7), ω̄ of the inner

@@ -18,6 +18,17 @@ pub struct Claim {
     pub resumed: bool,
 }
 
+/// What [`Store::claim`] found.
+#[derive(Debug, Clone, Copy, PartialEq, Eq)]
+pub enum ClaimResult {
+    /// The case was pending and is now this process's.
+    Claimed(Claim),
+    /// The case is done or failed already (another sweep finished it meanwhile).
+    Finished,
+    /// Another process is running the case.
+    Elsewhere,
+}
+
 /// Everything recorded when a case ends.
 #[derive(Debug, Clone)]
 pub struct CaseRecord {
@@ -148,7 +159,12 @@ impl Store {
     }
 
     /// Marks a run finished.
+    ///
+    /// # Errors
+    /// [`StoreError::Vanished`](super::StoreError::Vanished) when the database file was deleted or
+    /// replaced during the run.
     pub fn finish_run(&mut self, run_id: i64) -> Result<()> {
+        self.check_still_there()?;
         self.conn
             .execute(
                 "UPDATE runs SET finished_at = strftime('%Y-%m-%dT%H:%M:%fZ', 'now') WHERE id = ?1",
@@ -274,37 +290,57 @@ impl Store {
     }
 
     /// Claims a pending case for this process (pending → running) and clears the rows of an
-    /// earlier interrupted attempt; returns the case's row id and whether it continues that attempt,
-    /// or `None` if the case is not pending.
+    /// earlier interrupted attempt; returns the case's row id and whether it continues that
+    /// attempt, or what keeps the case from being claimed (finished, or running elsewhere).
     ///
     /// `resume = Some((step, rows))` offers to continue from a saved state after `step` that was
     /// written when the case had `rows` sample rows up to `step`: if the database still has exactly
     /// those, the rows after `step` are dropped and the earlier ones kept; otherwise (a new or
     /// another database) everything is cleared and the case starts over.
-    pub fn claim(&mut self, case_hash: &str, resume: Option<(u64, u64)>) -> Result<Option<Claim>> {
+    ///
+    /// # Errors
+    /// [`StoreError::Vanished`](super::StoreError::Vanished) when the case is not in the database
+    /// at all (it was registered by this sweep: the file was deleted or replaced).
+    pub fn claim(&mut self, case_hash: &str, resume: Option<(u64, u64)>) -> Result<ClaimResult> {
+        self.check_still_there()?;
         let err = self.sql_err();
         let tx = self
             .conn
             .transaction_with_behavior(TransactionBehavior::Immediate)
             .map_err(&err)?;
-        let id: Option<i64> = tx
+        let row: Option<(i64, String)> = tx
             .query_row(
-                "SELECT id FROM cases WHERE case_hash = ?1 AND status = 'pending'",
+                "SELECT id, status FROM cases WHERE case_hash = ?1",
                 params![case_hash],
-                |r| r.get(0),
+                |r| Ok((r.get(0)?, r.get(1)?)),
             )
             .optional()
             .map_err(&err)?;
-        let Some(id) = id else {
-            tx.commit().map_err(err)?;
-            return Ok(None);
+        let id = match row {
+            Some((id, status)) if status == "pending" => id,
+            Some((_, status)) => {
+                tx.commit().map_err(err)?;
+                return Ok(if status == "running" {
+                    ClaimResult::Elsewhere
+                } else {
+                    ClaimResult::Finished
+                });
+            }
+            None => {
+                return Err(super::StoreError::Vanished {
+                    path: self.path.clone(),
+                    what: format!("case {case_hash}, registered by this sweep, is not in it"),
+                })
+            }
         };
-        tx.execute(
-            "UPDATE cases SET status = 'running', owner = ?2, owner_pid = ?3, error = NULL,
-                started_at = strftime('%Y-%m-%dT%H:%M:%fZ', 'now') WHERE id = ?1",
-            params![id, owner(), std::process::id()],
-        )
-        .map_err(&err)?;
+        let claimed = tx
+            .execute(
+                "UPDATE cases SET status = 'running', owner = ?2, owner_pid = ?3, error = NULL,
+                    started_at = strftime('%Y-%m-%dT%H:%M:%fZ', 'now') WHERE id = ?1 AND status = 'pending'",
+                params![id, owner(), std::process::id()],
+            )
+            .map_err(&err)?;
+        debug_assert_eq!(claimed, 1, "the row was pending inside this transaction");
         let keep = match resume {
             Some((step, rows)) => {
                 let have = sample_rows(&tx, id, step).map_err(&err)?;
@@ -323,7 +359,7 @@ impl Store {
         tx.execute("DELETE FROM outcomes WHERE case_id = ?1", params![id])
             .map_err(&err)?;
         tx.commit().map_err(err)?;
-        Ok(Some(Claim {
+        Ok(ClaimResult::Claimed(Claim {
             id,
             resumed: keep.is_some(),
         }))
@@ -357,7 +393,13 @@ impl Store {
     }
 
     /// Records a finished (or failed) case in one transaction: remaining samples, outcome, status.
+    ///
+    /// # Errors
+    /// [`StoreError::Vanished`](super::StoreError::Vanished) when the database file was deleted or
+    /// replaced since it was opened, or the case's row is gone: the result is not recorded, and
+    /// the caller must say so.
     pub fn finish_case(&mut self, case_id: i64, rec: &CaseRecord) -> Result<()> {
+        self.check_still_there()?;
         let err = self.sql_err();
         let tx = self
             .conn
@@ -382,7 +424,7 @@ impl Store {
         } else {
             "failed"
         };
-        tx.execute(
+        let updated = tx.execute(
             "UPDATE cases SET status = ?2, finished_at = strftime('%Y-%m-%dT%H:%M:%fZ', 'now'), wall_s = ?3,
                 steps = ?4, t_reached = ?5, run_id = ?6, error = ?7, owner = NULL, owner_pid = NULL,
                 settings_json = ?8
@@ -399,6 +441,12 @@ impl Store {
             ],
         )
         .map_err(&err)?;
+        if updated != 1 {
+            return Err(super::StoreError::Vanished {
+                path: self.path.clone(),
+                what: format!("case row {case_id} is gone"),
+            });
+        }
         tx.commit().map_err(err)
     }
 

@@ -7,6 +7,7 @@
 //! up front instead of failing to upgrade a read lock.
 
 pub mod cases;
+mod open;
 pub mod query;
 pub mod schema;
 pub mod snapshot;
@@ -17,7 +18,7 @@ use std::time::Duration;
 
 use rusqlite::{params, Connection, OptionalExtension, TransactionBehavior};
 
-pub use cases::{CaseRecord, Claim, RunningCase, SweepCounts};
+pub use cases::{CaseRecord, Claim, ClaimResult, RunningCase, SweepCounts};
 pub use table::{Format, Table};
 
 /// How long a connection waits for another writer before giving up: a finished case's transaction takes
@@ -64,6 +65,51 @@ pub enum StoreError {
     /// A query asked for something that does not exist (unknown column, unknown sweep, ...).
     #[error("{0}")]
     BadQuery(String),
+    /// The database file does not exist (readers never create one).
+    #[error("database {} does not exist", path.display())]
+    Missing {
+        /// The path given.
+        path: PathBuf,
+    },
+    /// The file is not an SQLite database.
+    #[error("{} is not an SQLite database (not an xpflow results database); give another --db", path.display())]
+    NotDatabase {
+        /// The file.
+        path: PathBuf,
+    },
+    /// An SQLite database without xpflow's tables.
+    #[error("{} is an SQLite database but not an xpflow results database (it has {tables} and no \
+             schema_version table); give another --db", path.display())]
+    Foreign {
+        /// The file.
+        path: PathBuf,
+        /// The tables it has, comma-separated.
+        tables: String,
+    },
+    /// The database was deleted or replaced while a sweep wrote to it: what it was writing is lost.
+    #[error("database {} was deleted or replaced while the sweep ran ({what}); results written \
+             since are lost: rerun the sweep", path.display())]
+    Vanished {
+        /// The database file.
+        path: PathBuf,
+        /// What was found.
+        what: String,
+    },
+}
+
+impl StoreError {
+    /// Whether the error is the user's input (a database that is missing, not xpflow's or newer,
+    /// a bad query) rather than a failure at run time: the CLI exits with code 2 for these.
+    pub fn is_bad_input(&self) -> bool {
+        matches!(
+            self,
+            StoreError::BadQuery(_)
+                | StoreError::Missing { .. }
+                | StoreError::NotDatabase { .. }
+                | StoreError::Foreign { .. }
+                | StoreError::NewerSchema { .. }
+        )
+    }
 }
 
 /// Result alias for the store.
@@ -121,47 +167,19 @@ fn retry_busy<T, E>(
 }
 
 /// A connection to a results database. Not shared between threads: open one per thread.
+///
+/// Three ways to open one ([`open`](Store::open) for the process that starts a sweep,
+/// [`open_existing`](Store::open_existing) for its workers, [`open_read_only`](Store::open_read_only)
+/// for readers); all refuse a file that is not SQLite or an SQLite database of another program.
 pub struct Store {
     conn: Connection,
     path: PathBuf,
+    /// Device and inode of the file when it was opened: a file deleted or replaced since is
+    /// noticed before a result is committed to it ([`Store::check_still_there`]).
+    identity: Option<(u64, u64)>,
 }
 
 impl Store {
-    /// Opens (creating if needed) the database at `path`, switches it to WAL mode and brings the schema up
-    /// to [`schema::SCHEMA_VERSION`].
-    pub fn open(path: &Path) -> Result<Store> {
-        if let Some(dir) = path.parent().filter(|d| !d.as_os_str().is_empty()) {
-            std::fs::create_dir_all(dir).map_err(|source| StoreError::Io {
-                path: dir.to_path_buf(),
-                source,
-            })?;
-        }
-        let sql = |source| StoreError::Sql {
-            path: path.to_path_buf(),
-            source,
-        };
-        let conn = Connection::open(path).map_err(sql)?;
-        conn.busy_timeout(BUSY_TIMEOUT).map_err(sql)?;
-        // switching a new file to WAL needs an exclusive lock and may return SQLITE_BUSY at
-        // once, without the busy handler, while another process creates the same database
-        let mode: String = retry_busy(is_busy, || {
-            conn.query_row("PRAGMA journal_mode = WAL", [], |r| r.get(0))
-        })
-        .map_err(sql)?;
-        debug_assert!(mode.eq_ignore_ascii_case("wal") || path.as_os_str() == ":memory:");
-        conn.pragma_update(None, "synchronous", "NORMAL")
-            .map_err(sql)?;
-        conn.pragma_update(None, "foreign_keys", "ON")
-            .map_err(sql)?;
-        let mut store = Store {
-            conn,
-            path: path.to_path_buf(),
-        };
-        let busy = |e: &StoreError| matches!(e, StoreError::Sql { source, .. } if is_busy(source));
-        retry_busy(busy, || store.migrate())?;
-        Ok(store)
-    }
-
     /// The database file.
     pub fn path(&self) -> &Path {
         &self.path

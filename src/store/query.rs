@@ -36,6 +36,34 @@ pub const FILTER_COLUMNS: [&str; 22] = [
     "error",
 ];
 
+/// Columns of [`FILTER_COLUMNS`] that hold text; the others are numbers, and a filter on them needs one.
+const TEXT_COLUMNS: [&str; 7] = [
+    "mesh",
+    "status",
+    "kind",
+    "geometry",
+    "label",
+    "case_hash",
+    "error",
+];
+
+/// Values of the `status` column (`interrupted` is how `query cases` shows a running case whose
+/// process is gone; the database has it as `running`).
+const STATUSES: [&str; 4] = ["pending", "running", "done", "failed"];
+
+/// Outcome kinds (the `kind` column).
+const KINDS: [&str; 9] = [
+    "string",
+    "repel",
+    "pass",
+    "jammed",
+    "wall_contact",
+    "migrated",
+    "steady",
+    "diverged",
+    "timeout",
+];
+
 /// Relative tolerance when a numeric filter matches a stored value, so `wi=0.3` finds 0.30000000000000004.
 const FILTER_REL_TOL: f64 = 1e-9;
 
@@ -66,10 +94,29 @@ impl std::str::FromStr for Filter {
                 )
             })?;
         let val = val.trim();
-        let value = val
-            .parse::<f64>()
-            .map(Value::from)
-            .unwrap_or_else(|_| Value::from(val));
+        let value = if TEXT_COLUMNS.contains(column) {
+            let known: &[&str] = match *column {
+                "status" => &STATUSES,
+                "kind" => &KINDS,
+                _ => &[],
+            };
+            if !known.is_empty() && !known.contains(&val) {
+                return Err(format!(
+                    "filter `{s}`: {column} is one of {}",
+                    known.join(", ")
+                ));
+            }
+            Value::from(val)
+        } else {
+            match val.parse::<f64>() {
+                Ok(x) if x.is_finite() => Value::from(x),
+                _ => {
+                    return Err(format!(
+                        "filter `{s}`: {column} is a number, `{val}` is not one"
+                    ))
+                }
+            }
+        };
         Ok(Filter { column, value })
     }
 }
@@ -138,6 +185,9 @@ impl Store {
         sweep: Option<&str>,
         filters: &[Filter],
     ) -> Result<Table> {
+        if let Some(name) = sweep {
+            self.check_sweep(name)?;
+        }
         let (cond, args) = where_clause(sweep, filters);
         match kind {
             QueryKind::StringFormation => {
@@ -186,22 +236,31 @@ impl Store {
                 Ok(pivot("delta", "Wi=", cells, |k: Key| json!(k.0)))
             }
             QueryKind::FinalRStar(by) => {
-                let sql = format!(
-                    "SELECT c.case_hash, c.label, c.{by}, c.r0, c.eps, c.wi, c.alpha, c.kind,
-                            json_extract(c.final_json, '$.r_star[0]') FROM case_outcomes c{cond}
-                     AND c.geometry = 'couette' AND c.kind IS NOT NULL ORDER BY c.{by}, c.r0, c.case_hash"
-                );
-                let cols = [
-                    "case",
-                    "label",
-                    by,
-                    "r0_star",
-                    "eps",
-                    "wi",
-                    "alpha",
-                    "kind",
-                    "r_star_final",
+                // (column, heading) of the parameters shown after the ordering one, which is
+                // shown first and not again
+                let params = [
+                    ("r0", "r0_star"),
+                    ("eps", "eps"),
+                    ("wi", "wi"),
+                    ("alpha", "alpha"),
                 ];
+                let rest: Vec<(&str, &str)> = params.into_iter().filter(|(c, _)| c != by).collect();
+                let heading = params
+                    .iter()
+                    .find(|(c, _)| c == by)
+                    .map_or(*by, |(_, h)| *h);
+                let sql = format!(
+                    "SELECT c.case_hash, c.label, c.{by}, {}, c.kind,
+                            json_extract(c.final_json, '$.r_star[0]') FROM case_outcomes c{cond}
+                     AND c.geometry = 'couette' AND c.kind IS NOT NULL ORDER BY c.{by}, c.r0, c.case_hash",
+                    rest.iter()
+                        .map(|(c, _)| format!("c.{c}"))
+                        .collect::<Vec<_>>()
+                        .join(", ")
+                );
+                let mut cols = vec!["case", "label", heading];
+                cols.extend(rest.iter().map(|(_, h)| *h));
+                cols.extend(["kind", "r_star_final"]);
                 Ok(Table {
                     columns: cols.iter().map(|c| c.to_string()).collect(),
                     rows: self.rows(&sql, &args)?,
@@ -223,6 +282,11 @@ impl Store {
                         && super::cases::owner_alive(owner, pid, &host) == Some(false)
                     {
                         r[2] = json!("interrupted");
+                    }
+                    // the mean gap describes a string; for other outcomes it is the distance
+                    // between particles that never chained (4960a after a jump), not a result
+                    if r[3] != "string" {
+                        r[6] = Value::Null;
                     }
                 }
                 let cols = [
@@ -302,9 +366,10 @@ impl Store {
             }
             QueryKind::Trajectory(hash) => {
                 let mut args = args;
+                // a prefix, compared as text (LIKE would take `%` and `_` as wildcards)
                 let ids = self.rows(
                     &format!(
-                        "SELECT c.id FROM cases c{cond} AND c.case_hash LIKE ?{} || '%'",
+                        "SELECT c.id FROM cases c{cond} AND substr(c.case_hash, 1, length(?{0})) = ?{0}",
                         args.len() + 1
                     ),
                     &{
@@ -313,6 +378,11 @@ impl Store {
                     },
                 )?;
                 let id = match ids.as_slice() {
+                    _ if hash.is_empty() => {
+                        return Err(StoreError::BadQuery(
+                            "--case needs a case id (see `xpflow query cases`)".into(),
+                        ))
+                    }
                     [one] => one[0].clone(),
                     [] => return Err(StoreError::BadQuery(format!("no case with id `{hash}`"))),
                     _ => {
@@ -333,6 +403,27 @@ impl Store {
                 })
             }
         }
+    }
+
+    /// A query for a sweep the database does not have is an error naming the ones it has.
+    fn check_sweep(&self, name: &str) -> Result<()> {
+        let names: Vec<String> = self
+            .rows("SELECT name FROM sweeps ORDER BY name", &[])?
+            .into_iter()
+            .filter_map(|r| r[0].as_str().map(str::to_string))
+            .collect();
+        if names.iter().any(|n| n == name) {
+            return Ok(());
+        }
+        Err(StoreError::BadQuery(format!(
+            "no sweep `{name}` in {}; it has {}",
+            self.path.display(),
+            if names.is_empty() {
+                "none".to_string()
+            } else {
+                names.join(", ")
+            }
+        )))
     }
 
     fn rows(&self, sql: &str, args: &[SqlValue]) -> Result<Vec<Vec<Value>>> {

@@ -6,20 +6,20 @@
 use std::panic::{catch_unwind, AssertUnwindSafe};
 use std::path::PathBuf;
 use std::sync::Mutex;
-use std::time::{Duration, Instant};
+use std::time::Duration;
 
 use rayon::prelude::*;
 
-use super::progress::{CaseProgress, Progress, ProgressMode};
+use super::memory;
+use super::progress::{Progress, ProgressMode};
+use super::recorder::{Recorder, ResumeFile};
 use super::runner::{CaseRunner, RunStatus};
 use super::PlannedCase;
-use crate::config::{CaseSpec, SweepSpec};
-use crate::observe::{CaseObserver, Classifier, Control, FieldSnapshot, OutcomeKind, Sample};
-use crate::store::snapshot::SnapshotWriter;
-use crate::store::{CaseRecord, Store, StoreError};
+use crate::config::SweepSpec;
+use crate::observe::OutcomeKind;
+use crate::store::{CaseRecord, ClaimResult, Store, StoreError};
 
-/// Sample rows buffered before a checkpoint writes them, bounding memory of long cases.
-const CHECKPOINT_ROWS: usize = 50_000;
+pub use super::recorder::{resume_path, saved_state};
 
 /// Options of one sweep invocation.
 #[derive(Debug, Clone)]
@@ -39,6 +39,10 @@ pub struct SweepOptions {
     pub state_every: Duration,
     /// Directory of HDF5 snapshots (default `<db dir>/<sweep name>/`).
     pub snapshot_dir: Option<PathBuf>,
+    /// Largest estimated memory of one case, in bytes ([`crate::config::CaseSpec::memory_estimate`]);
+    /// a sweep with a larger case is refused before anything is written. Default: the machine's
+    /// physical memory ([`memory::total`]).
+    pub max_case_memory: f64,
 }
 
 impl SweepOptions {
@@ -54,6 +58,7 @@ impl SweepOptions {
             checkpoint_every: Duration::from_secs(60),
             state_every: Duration::from_secs(300),
             snapshot_dir: None,
+            max_case_memory: memory::total(),
         }
     }
 }
@@ -67,8 +72,10 @@ pub struct SweepSummary {
     pub ran: usize,
     /// Cases this invocation ran that failed.
     pub failed: usize,
-    /// Cases not run (already done or failed, or being run by another process).
+    /// Cases not run because they were done or failed already.
     pub skipped: usize,
+    /// Cases not run because another process is running them.
+    pub elsewhere: usize,
     /// Interrupted cases reset to pending before running.
     pub reset: usize,
     /// Outcome kinds of the cases run, in case order.
@@ -87,6 +94,26 @@ pub enum SweepError {
         label: String,
         /// The runner's reason.
         reason: String,
+    },
+    /// A case would need more memory than allowed; nothing was written.
+    #[error(
+        "case {index} ({label}): field `numerics.mesh`: {mesh} elements need about {} of memory, \
+         more than the limit of {} (the machine's memory, or --max-memory); use a coarser mesh, \
+         or raise --max-memory if the machine has it",
+        memory::gb(*need),
+        memory::gb(*limit)
+    )]
+    TooLarge {
+        /// Case index.
+        index: usize,
+        /// Case label.
+        label: String,
+        /// The mesh, `n1×n2`.
+        mesh: String,
+        /// Estimated bytes.
+        need: f64,
+        /// The limit in bytes.
+        limit: f64,
     },
     /// The store failed.
     #[error(transparent)]
@@ -117,26 +144,33 @@ pub fn run_sweep(
                 reason,
             })?;
     }
+    check_memory(cases, opts.max_case_memory)?;
     let mut store = Store::open(&opts.db)?;
     let sweep_id = store.register_sweep(sweep)?;
     store.add_cases(sweep_id, cases)?;
     let reset = store.reset_interrupted(sweep_id, opts.retry_failed)?;
-    let pending: Vec<&PlannedCase> = {
-        let conn = store.connection();
-        let mut st = conn
+    // each case by its status now: pending ones are run, running ones (another process; those
+    // of a killed one were reset above) are left to it, the others are done
+    let mut pending: Vec<&PlannedCase> = Vec::new();
+    let mut running_elsewhere = Vec::new();
+    {
+        let err = |source| StoreError::Sql {
+            path: opts.db.clone(),
+            source,
+        };
+        let mut st = store
+            .connection()
             .prepare("SELECT status FROM cases WHERE case_hash = ?1")
-            .map_err(|source| StoreError::Sql {
-                path: opts.db.clone(),
-                source,
-            })?;
-        cases
-            .iter()
-            .filter(|c| {
-                st.query_row([&c.id], |r| r.get::<_, String>(0))
-                    .is_ok_and(|s| s == "pending")
-            })
-            .collect()
-    };
+            .map_err(err)?;
+        for c in cases {
+            let status: String = st.query_row([&c.id], |r| r.get(0)).map_err(err)?;
+            match status.as_str() {
+                "pending" => pending.push(c),
+                "running" => running_elsewhere.push(c),
+                _ => {}
+            }
+        }
+    }
     let jobs = opts.jobs.max(1).min(pending.len().max(1));
     let run_id = store.begin_run(sweep_id, jobs, &sweep.raw.to_string())?;
     let snapshot_dir = opts.snapshot_dir.clone().unwrap_or_else(|| {
@@ -146,6 +180,12 @@ pub fn run_sweep(
             .unwrap_or_else(|| PathBuf::from(&sweep.name))
     });
     let progress = Progress::new(opts.progress, pending.len());
+    for c in &running_elsewhere {
+        progress.log(&format!(
+            "running elsewhere: {} ({}) is being run by another process",
+            c.label, c.id
+        ));
+    }
     progress.log(&format!(
         "sweep {}: {} cases, {} to run ({} reset after interruption), {jobs} at a time, database {}",
         sweep.name,
@@ -200,40 +240,82 @@ pub fn run_sweep(
     };
     for (index, r) in results {
         match r {
-            None => summary.skipped += 1,
-            Some((kind, failed)) => {
+            CaseRun::Finished => summary.skipped += 1,
+            CaseRun::Elsewhere => summary.elsewhere += 1,
+            CaseRun::Ran { kind, failed } => {
                 summary.ran += 1;
                 summary.failed += usize::from(failed);
                 summary.outcomes.push((cases[index].label.clone(), kind));
             }
         }
     }
-    summary.skipped += cases.len() - pending.len();
+    summary.elsewhere += running_elsewhere.len();
+    summary.skipped += cases.len() - pending.len() - running_elsewhere.len();
     Ok(summary)
 }
 
-/// What running one case gave: `None` if another process had claimed it, else (outcome kind or
-/// `failed`, whether it failed).
-type CaseRun = Option<(String, bool)>;
-
-struct CaseContext<'a> {
-    runner: &'a dyn CaseRunner,
-    opts: &'a SweepOptions,
-    progress: &'a Progress,
-    run_id: i64,
-    snapshot_dir: &'a PathBuf,
+/// Refuses a sweep with a case whose estimated memory is above `limit` bytes.
+fn check_memory(cases: &[PlannedCase], limit: f64) -> Result<(), SweepError> {
+    for c in cases {
+        let need = c.spec.memory_estimate();
+        if need > limit {
+            let [n1, n2] = c.spec.numerics.mesh;
+            return Err(SweepError::TooLarge {
+                index: c.index,
+                label: c.label.clone(),
+                mesh: format!("{n1}×{n2}"),
+                need,
+                limit,
+            });
+        }
+    }
+    Ok(())
 }
 
-/// Claims and runs one case; `None` if another process had it. Returns (outcome or "failed", failed?).
-fn run_one(
-    case: &PlannedCase,
-    ctx: &CaseContext<'_>,
-) -> Result<Option<(String, bool)>, StoreError> {
-    let mut store = Store::open(&ctx.opts.db)?;
+/// What running one case gave.
+enum CaseRun {
+    /// Run to an outcome (kind) or failed (kind `failed`).
+    Ran {
+        /// Outcome kind or `failed`.
+        kind: String,
+        /// Whether it failed.
+        failed: bool,
+    },
+    /// Done or failed before this process came to it.
+    Finished,
+    /// Another process runs it.
+    Elsewhere,
+}
+
+/// What a worker needs to run a case.
+pub(super) struct CaseContext<'a> {
+    runner: &'a dyn CaseRunner,
+    pub(super) opts: &'a SweepOptions,
+    pub(super) progress: &'a Progress,
+    run_id: i64,
+    pub(super) snapshot_dir: &'a PathBuf,
+}
+
+/// Claims and runs one case.
+///
+/// # Errors
+/// A store error, among them [`StoreError::Vanished`] when the database was deleted or replaced
+/// during the sweep: the case's result could not be recorded.
+fn run_one(case: &PlannedCase, ctx: &CaseContext<'_>) -> Result<CaseRun, StoreError> {
+    // the sweep made the database: a worker never creates one (a deleted file is an error)
+    let mut store = Store::open_existing(&ctx.opts.db)?;
     let resume_path = resume_path(&ctx.opts.db, &case.id);
     let saved = ResumeFile::load(&resume_path, &case.id);
-    let Some(claim) = store.claim(&case.id, saved.as_ref().map(|r| (r.step, r.rows)))? else {
-        return Ok(None);
+    let claim = match store.claim(&case.id, saved.as_ref().map(|r| (r.step, r.rows)))? {
+        ClaimResult::Claimed(c) => c,
+        ClaimResult::Finished => return Ok(CaseRun::Finished),
+        ClaimResult::Elsewhere => {
+            ctx.progress.log(&format!(
+                "running elsewhere: {} ({}) is being run by another process",
+                case.label, case.id
+            ));
+            return Ok(CaseRun::Elsewhere);
+        }
     };
     let case_id = claim.id;
     let saved = saved.filter(|_| claim.resumed);
@@ -247,11 +329,15 @@ fn run_one(
         .progress
         .start_case(&case.label, &case.id, case.spec.numerics.t_end);
     let mut rec = Recorder::new(&mut store, case_id, &case.spec, &case.id, ctx, bar);
-    rec.resume_path = resume_path.clone();
     if let Some(r) = saved {
         rec.resume_from(r);
     }
-    let result = catch_unwind(AssertUnwindSafe(|| ctx.runner.run(&case.spec, &mut rec)));
+    // an allocation that fails aborts the process (no unwinding): a case that does not fit in
+    // the memory free now fails instead of taking the sweep with it
+    let result = match memory::fits(&case.spec) {
+        Err(error) => Ok(crate::simulate::CaseResult::failed(error)),
+        Ok(()) => catch_unwind(AssertUnwindSafe(|| ctx.runner.run(&case.spec, &mut rec))),
+    };
     let (status, steps, t) = match result {
         Ok(r) => (r.status, r.steps, r.t),
         Err(payload) => {
@@ -285,13 +371,16 @@ fn run_one(
         RunStatus::Diverged { reason } => (Some(rec.classifier.diverged(t, &reason)), Some(reason)),
         RunStatus::Failed { error } => (None, Some(error)),
     };
+    let mut outcome = outcome;
     for (what, e) in [
         ("snapshot", rec.snapshot_error.take()),
         ("saved state", rec.state_error.take()),
     ] {
         if let Some(e) = e {
+            // the run stopped at the first write that failed: it did not give what was asked
+            outcome = None;
             error = Some(match error {
-                Some(prev) => format!("{prev}; {what}: {e}"),
+                Some(prev) => format!("{what}: {e}; {prev}"),
                 None => format!("{what}: {e}"),
             });
         }
@@ -331,269 +420,5 @@ fn run_one(
     if let Some(bar) = bar {
         ctx.progress.finish_case(bar, &summary);
     }
-    Ok(Some((kind, failed)))
-}
-
-/// The observer the engine gives a runner: classifies every step, keeps every k-th sample, checkpoints,
-/// writes snapshots and drives the case's progress bar.
-struct Recorder<'a> {
-    store: &'a mut Store,
-    case_id: i64,
-    hash: &'a str,
-    spec: &'a CaseSpec,
-    classifier: Classifier,
-    buffer: Vec<Sample>,
-    last: Option<Sample>,
-    stored_step: Option<u64>,
-    last_flush: Instant,
-    checkpoint_every: Duration,
-    snapshot_dir: &'a PathBuf,
-    snapshots: Option<SnapshotWriter>,
-    snapshot_error: Option<String>,
-    bar: Option<CaseProgress>,
-    /// Where the solver state goes ([`resume_path`]).
-    resume_path: PathBuf,
-    state_every: Duration,
-    last_state: Instant,
-    state_error: Option<String>,
-    /// The state a resumed case continues from, until the runner takes it.
-    resume_state: Option<String>,
-    /// The step a resumed case continues after (its snapshots up to there are kept).
-    resumed_at: Option<u64>,
-    /// Wall-clock seconds spent on the case by earlier, interrupted attempts.
-    wall_before: f64,
-    started: Instant,
-}
-
-impl<'a> Recorder<'a> {
-    fn new(
-        store: &'a mut Store,
-        case_id: i64,
-        spec: &'a CaseSpec,
-        hash: &'a str,
-        ctx: &CaseContext<'a>,
-        bar: CaseProgress,
-    ) -> Self {
-        Recorder {
-            store,
-            case_id,
-            hash,
-            spec,
-            classifier: Classifier::new(spec),
-            buffer: Vec::new(),
-            last: None,
-            stored_step: None,
-            last_flush: Instant::now(),
-            checkpoint_every: ctx.opts.checkpoint_every,
-            snapshot_dir: ctx.snapshot_dir,
-            snapshots: None,
-            snapshot_error: None,
-            bar: Some(bar),
-            resume_path: PathBuf::new(),
-            state_every: ctx.opts.state_every,
-            last_state: Instant::now(),
-            state_error: None,
-            resume_state: None,
-            resumed_at: None,
-            wall_before: 0.0,
-            started: Instant::now(),
-        }
-    }
-
-    /// Wall-clock seconds spent on the case so far, over all attempts.
-    fn wall_s(&self) -> f64 {
-        self.wall_before + self.started.elapsed().as_secs_f64()
-    }
-
-    /// Continues an interrupted attempt: the classifier, the last sample and the solver state as
-    /// they were saved.
-    fn resume_from(&mut self, r: ResumeFile) {
-        self.classifier = r.classifier;
-        self.stored_step = r.stored_step;
-        self.last = Some(r.last);
-        self.wall_before = r.wall_s;
-        self.resumed_at = Some(r.step);
-        self.resume_state = Some(r.solver.get().to_string());
-    }
-
-    /// Writes the resume file for `step` (samples flushed first, so that the database holds every
-    /// sample up to `step` whenever the file says so).
-    fn write_state(&mut self, step: u64, state: &str) -> Result<(), String> {
-        let Some(last) = self.last.clone().filter(|s| s.step == step) else {
-            return Err(format!("step {step} was not reported before its state"));
-        };
-        self.flush();
-        if !self.buffer.is_empty() {
-            return Err("samples could not be written".into());
-        }
-        let rows = self
-            .store
-            .count_samples(self.case_id, step)
-            .map_err(|e| e.to_string())?;
-        let file = ResumeFile {
-            format: RESUME_FORMAT,
-            case_hash: self.hash.to_string(),
-            code_version: crate::store::code_version(),
-            step,
-            t: last.t,
-            rows,
-            stored_step: self.stored_step,
-            last,
-            classifier: self.classifier.clone(),
-            wall_s: self.wall_s(),
-            solver: serde_json::value::RawValue::from_string(state.to_string())
-                .map_err(|e| format!("solver state is not JSON: {e}"))?,
-        };
-        let json = serde_json::to_string(&file).map_err(|e| e.to_string())?;
-        let io = |e: std::io::Error| format!("{}: {e}", self.resume_path.display());
-        if let Some(dir) = self.resume_path.parent() {
-            std::fs::create_dir_all(dir).map_err(io)?;
-        }
-        // write-then-rename: a kill leaves the previous state or this one, never half of one
-        let tmp = self.resume_path.with_extension("json.tmp");
-        std::fs::write(&tmp, json).map_err(io)?;
-        std::fs::rename(&tmp, &self.resume_path).map_err(io)
-    }
-
-    fn flush(&mut self) {
-        if self.buffer.is_empty() {
-            return;
-        }
-        // A failed checkpoint is not fatal: the samples stay buffered for the final transaction.
-        if self.store.write_samples(self.case_id, &self.buffer).is_ok() {
-            self.stored_step = self.buffer.last().map(|s| s.step);
-            self.buffer.clear();
-        }
-        self.last_flush = Instant::now();
-    }
-}
-
-impl CaseObserver for Recorder<'_> {
-    fn on_step(&mut self, sample: &Sample) -> Control {
-        self.classifier.push(sample);
-        if sample.step.is_multiple_of(self.spec.output.sample_every) {
-            self.buffer.push(sample.clone());
-        }
-        self.last = Some(sample.clone());
-        if let Some(bar) = &mut self.bar {
-            bar.update(sample.t, sample.step);
-        }
-        let rows = self.buffer.len() * sample.particles.len().max(1);
-        if rows >= CHECKPOINT_ROWS || self.last_flush.elapsed() >= self.checkpoint_every {
-            self.flush();
-        }
-        match self.classifier.decided() {
-            Some(o) if o.kind == OutcomeKind::Diverged || self.spec.stop.early_stop => {
-                Control::Stop
-            }
-            _ => Control::Continue,
-        }
-    }
-
-    fn snapshot_due(&self, step: u64) -> bool {
-        let every = self.spec.output.snapshot_every;
-        every > 0 && step.is_multiple_of(every)
-    }
-
-    fn on_snapshot(&mut self, snapshot: &FieldSnapshot) {
-        if self.snapshots.is_none() && self.snapshot_error.is_none() {
-            let opened = match self.resumed_at {
-                Some(step) => SnapshotWriter::reopen(self.snapshot_dir, self.hash, step),
-                None => SnapshotWriter::create(self.snapshot_dir, self.hash),
-            };
-            match opened {
-                Ok(w) => self.snapshots = Some(w),
-                Err(e) => self.snapshot_error = Some(e.to_string()),
-            }
-        }
-        let Some(w) = &mut self.snapshots else { return };
-        let file = w.h5_path().display().to_string();
-        let written = w.write(snapshot).and_then(|_| {
-            self.store
-                .record_snapshot(self.case_id, snapshot.step, snapshot.t, &file)
-        });
-        if let Err(e) = written {
-            self.snapshot_error.get_or_insert(e.to_string());
-        }
-    }
-
-    fn checkpoint(&mut self) {
-        self.flush();
-    }
-
-    fn state_due(&self, _step: u64) -> bool {
-        self.last_state.elapsed() >= self.state_every
-    }
-
-    fn save_state(&mut self, step: u64, state: &str) {
-        if let Err(e) = self.write_state(step, state) {
-            self.state_error.get_or_insert(e);
-        }
-        self.last_state = Instant::now();
-    }
-
-    fn resume_state(&mut self) -> Option<String> {
-        self.resume_state.take()
-    }
-}
-
-/// Where the saved state of case `hash` of database `db` lives: `<db dir>/<db stem>/<hash>.resume.json`
-/// (beside the snapshots when the sweep is named like its database, the default), whichever sweep
-/// invocation runs the case.
-pub fn resume_path(db: &std::path::Path, hash: &str) -> PathBuf {
-    let stem = db
-        .file_stem()
-        .map_or_else(|| "results".into(), |s| s.to_string_lossy().into_owned());
-    db.parent()
-        .unwrap_or_else(|| std::path::Path::new("."))
-        .join(stem)
-        .join(format!("{hash}.resume.json"))
-}
-
-/// The step, time and writing build of the saved state of a case, if it has a readable one.
-pub fn saved_state(db: &std::path::Path, hash: &str) -> Option<(u64, f64, String)> {
-    #[derive(serde::Deserialize)]
-    struct Header {
-        format: u32,
-        code_version: String,
-        step: u64,
-        t: f64,
-    }
-    let text = std::fs::read_to_string(resume_path(db, hash)).ok()?;
-    serde_json::from_str::<Header>(&text)
-        .ok()
-        .filter(|h| h.format == RESUME_FORMAT)
-        .map(|h| (h.step, h.t, h.code_version))
-}
-
-/// Layout version of the resume file.
-const RESUME_FORMAT: u32 = 1;
-
-/// A running case's saved state: what the observer had seen (classifier, last sample, how many
-/// sample rows the database held) and the runner's own state, after one step.
-#[derive(serde::Serialize, serde::Deserialize)]
-struct ResumeFile {
-    format: u32,
-    case_hash: String,
-    /// The build that wrote it (a resumed case may finish with another; the log says so).
-    code_version: String,
-    step: u64,
-    t: f64,
-    /// Sample rows of the case with step ≤ `step` when it was written.
-    rows: u64,
-    stored_step: Option<u64>,
-    last: Sample,
-    classifier: Classifier,
-    wall_s: f64,
-    solver: Box<serde_json::value::RawValue>,
-}
-
-impl ResumeFile {
-    /// The saved state of case `hash`, if there is a readable one of this layout.
-    fn load(path: &std::path::Path, hash: &str) -> Option<ResumeFile> {
-        let text = std::fs::read_to_string(path).ok()?;
-        serde_json::from_str::<ResumeFile>(&text)
-            .ok()
-            .filter(|r| r.format == RESUME_FORMAT && r.case_hash == hash)
-    }
+    Ok(CaseRun::Ran { kind, failed })
 }

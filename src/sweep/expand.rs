@@ -2,6 +2,8 @@
 //! case spec (keys sorted, defaults filled in, shorthands resolved), so the id is stable across runs,
 //! machines and the way the case was written.
 
+use std::collections::HashMap;
+
 use serde_json::Value;
 
 use crate::config::{CaseSpec, ConfigError, PlannedCase, SpecError, SweepSpec};
@@ -50,9 +52,23 @@ pub fn case_id(spec: &CaseSpec) -> String {
     format!("{:016x}", fnv1a64(canonical_json(&value).as_bytes()))
 }
 
-/// Expands a sweep into validated cases: the crossed axes (first varies slowest) times each zip group.
-/// Errors name the file, the case index and label, and the field; identical cases are an error.
+/// Most cases a sweep may expand to unless told otherwise (`xpflow sweep --max-cases`): far more
+/// than a study runs, few enough that expanding and registering them takes seconds.
+pub const DEFAULT_MAX_CASES: usize = 100_000;
+
+/// Expands a sweep into validated cases (at most [`DEFAULT_MAX_CASES`]); see [`expand_at_most`].
 pub fn expand(sweep: &SweepSpec) -> Result<Vec<PlannedCase>, ConfigError> {
+    expand_at_most(sweep, DEFAULT_MAX_CASES)
+}
+
+/// Expands a sweep into validated cases: the crossed axes (first varies slowest) times each zip group.
+/// Errors name the file, the case index and label, and the field; identical cases are an error, and so is
+/// a sweep of more than `max_cases` cases (counted before anything is expanded). Time and memory are
+/// linear in the number of cases.
+pub fn expand_at_most(
+    sweep: &SweepSpec,
+    max_cases: usize,
+) -> Result<Vec<PlannedCase>, ConfigError> {
     // Each dimension is a list of assignments; a plain axis is a zip group of one.
     let mut dims: Vec<Vec<Vec<(String, Value)>>> = Vec::new();
     for axis in &sweep.axes {
@@ -76,25 +92,45 @@ pub fn expand(sweep: &SweepSpec) -> Result<Vec<PlannedCase>, ConfigError> {
                 .collect(),
         );
     }
-    let paths: Vec<&str> = sweep
+    let count = dims.iter().fold(1.0_f64, |n, d| n * d.len() as f64);
+    if count > max_cases as f64 {
+        let sizes: Vec<String> = dims.iter().map(|d| d.len().to_string()).collect();
+        return Err(ConfigError::Sweep {
+            file: sweep.file.clone(),
+            field: "axes".into(),
+            message: format!(
+                "the axes expand to {count:.0} cases ({}), more than the limit of {max_cases}; \
+                 split the sweep into several files, or raise the limit with --max-cases",
+                sizes.join(" × ")
+            ),
+        });
+    }
+    let axes: Vec<&crate::config::Axis> = sweep
         .axes
         .iter()
         .chain(sweep.zips.iter().flatten())
-        .map(|a| a.path.as_str())
         .collect();
-    let mut combos: Vec<Vec<(String, Value)>> = vec![Vec::new()];
-    for dim in &dims {
-        combos = combos
+    let labels = Labels::new(&axes);
+    let first_path = axes.first().map_or("", |a| a.path.as_str());
+    let mut cases: Vec<PlannedCase> = Vec::with_capacity(count as usize);
+    let mut seen: HashMap<String, usize> = HashMap::with_capacity(count as usize);
+    // odometer over the dimensions, the last varying fastest
+    let mut at = vec![0_usize; dims.len()];
+    let total = count as usize;
+    for index in 0..total {
+        let params: Vec<(String, Value)> = dims
             .iter()
-            .flat_map(|c| {
-                dim.iter()
-                    .map(move |assign| c.iter().cloned().chain(assign.iter().cloned()).collect())
-            })
+            .zip(&at)
+            .flat_map(|(d, &k)| d[k].iter().cloned())
             .collect();
-    }
-    let mut cases: Vec<PlannedCase> = Vec::with_capacity(combos.len());
-    for (index, params) in combos.into_iter().enumerate() {
-        let label = label_of(&params, &paths);
+        for k in (0..dims.len()).rev() {
+            at[k] += 1;
+            if at[k] < dims[k].len() {
+                break;
+            }
+            at[k] = 0;
+        }
+        let label = labels.of(&params);
         let case_err = |error: SpecError| ConfigError::Case {
             file: sweep.file.clone(),
             index,
@@ -107,15 +143,17 @@ pub fn expand(sweep: &SweepSpec) -> Result<Vec<PlannedCase>, ConfigError> {
         }
         let spec = CaseSpec::from_value(value).map_err(case_err)?;
         let id = case_id(&spec);
-        if let Some(twin) = cases.iter().find(|c| c.id == id) {
+        if let Some(&twin) = seen.get(&id) {
+            let twin = &cases[twin];
             return Err(case_err(SpecError::new(
-                paths.first().copied().unwrap_or(""),
+                first_path,
                 format!(
                     "identical to case {} ({}); remove the duplicate axis value",
                     twin.index, twin.label
                 ),
             )));
         }
+        seen.insert(id.clone(), index);
         cases.push(PlannedCase {
             index,
             label,
@@ -127,25 +165,87 @@ pub fn expand(sweep: &SweepSpec) -> Result<Vec<PlannedCase>, ConfigError> {
     Ok(cases)
 }
 
-fn label_of(params: &[(String, Value)], paths: &[&str]) -> String {
-    if params.is_empty() {
-        return "base".into();
+/// Significant digits a label gives a float at least: 4 (0.1667 for 1/6), more only where the
+/// values of an axis need them to be told apart.
+const LABEL_MIN_DIGITS: usize = 4;
+/// Digits that tell any two different f64 apart.
+const LABEL_MAX_DIGITS: usize = 17;
+
+/// How the case labels name each swept field and write its values: `name=value`, the name the
+/// last segment of the path (the full path where two axes share it), floats in the shortest form
+/// with at least [`LABEL_MIN_DIGITS`] significant digits that tells the axis' values apart.
+struct Labels {
+    /// Per path: (name in the label, significant digits of its floats).
+    fields: HashMap<String, (String, usize)>,
+}
+
+impl Labels {
+    fn new(axes: &[&crate::config::Axis]) -> Labels {
+        let short = |p: &str| p.rsplit('.').next().unwrap_or(p).to_string();
+        let fields = axes
+            .iter()
+            .map(|a| {
+                let s = short(&a.path);
+                let ambiguous = axes.iter().filter(|b| short(&b.path) == s).count() > 1;
+                let name = if ambiguous { a.path.clone() } else { s };
+                (a.path.clone(), (name, digits_to_tell_apart(&a.values)))
+            })
+            .collect();
+        Labels { fields }
     }
-    let short = |p: &str| p.rsplit('.').next().unwrap_or(p).to_string();
-    params
+
+    fn of(&self, params: &[(String, Value)]) -> String {
+        if params.is_empty() {
+            return "base".into();
+        }
+        params
+            .iter()
+            .map(|(path, v)| {
+                let (name, digits) = self
+                    .fields
+                    .get(path)
+                    .map_or((path.as_str(), LABEL_MAX_DIGITS), |(n, d)| (n.as_str(), *d));
+                format!("{name}={}", label_value(v, digits))
+            })
+            .collect::<Vec<_>>()
+            .join(" ")
+    }
+}
+
+/// A value in a label: strings bare, floats with at most `digits` significant digits.
+fn label_value(v: &Value, digits: usize) -> String {
+    match v {
+        Value::String(s) => s.clone(),
+        Value::Number(n) if n.is_f64() => n.as_f64().map_or_else(
+            || n.to_string(),
+            |x| crate::store::table::round_sig(x, digits),
+        ),
+        Value::Array(items) => format!(
+            "[{}]",
+            items
+                .iter()
+                .map(|x| label_value(x, digits))
+                .collect::<Vec<_>>()
+                .join(",")
+        ),
+        other => other.to_string(),
+    }
+}
+
+/// The fewest significant digits (at least [`LABEL_MIN_DIGITS`]) at which the different values
+/// of an axis are written differently.
+fn digits_to_tell_apart(values: &[Value]) -> usize {
+    let distinct: std::collections::HashSet<String> = values
         .iter()
-        .map(|(path, v)| {
-            let s = short(path);
-            let ambiguous = paths.iter().filter(|q| short(q) == s).count() > 1;
-            let name = if ambiguous { path.clone() } else { s };
-            let value = match v {
-                Value::String(s) => s.clone(),
-                other => other.to_string(),
-            };
-            format!("{name}={value}")
+        .map(|v| label_value(v, LABEL_MAX_DIGITS))
+        .collect();
+    (LABEL_MIN_DIGITS..LABEL_MAX_DIGITS)
+        .find(|&d| {
+            let written: std::collections::HashSet<String> =
+                values.iter().map(|v| label_value(v, d)).collect();
+            written.len() == distinct.len()
         })
-        .collect::<Vec<_>>()
-        .join(" ")
+        .unwrap_or(LABEL_MAX_DIGITS)
 }
 
 /// Sets `value` at a dotted path, creating tables on the way.
@@ -199,8 +299,8 @@ mod tests {
     fn crossed_and_zipped_axes() {
         let cases = expand(&parse(SWEEP)).unwrap();
         assert_eq!(cases.len(), 3 * 2 * 2);
-        assert_eq!(cases[0].label, "wi=1 n=2 dt=0.01 t_end=1.0");
-        assert_eq!(cases[11].label, "wi=3 n=3 dt=0.02 t_end=2.0");
+        assert_eq!(cases[0].label, "wi=1 n=2 dt=0.01 t_end=1");
+        assert_eq!(cases[11].label, "wi=3 n=3 dt=0.02 t_end=2");
         assert_eq!(cases[11].spec.n_particles(), 3);
         assert_eq!(cases[11].spec.numerics.dt, 0.02);
     }

@@ -7,7 +7,9 @@
 
 pub mod engine;
 pub mod expand;
+pub mod memory;
 pub mod progress;
+mod recorder;
 pub mod runner;
 pub mod solver_runner;
 

@@ -42,12 +42,16 @@ pub struct Progress {
     multi: MultiProgress,
     overall: ProgressBar,
     total: usize,
+    /// Cases started so far: the number a case has in the log, from its start to its end.
+    started: AtomicUsize,
     finished: AtomicUsize,
 }
 
 /// Progress of one running case.
 pub struct CaseProgress {
     bar: Option<ProgressBar>,
+    /// The case's number in the log ([k/N] on its start and done lines).
+    number: usize,
     label: String,
     t_end: f64,
     started: Instant,
@@ -75,6 +79,7 @@ impl Progress {
             multi,
             overall,
             total,
+            started: AtomicUsize::new(0),
             finished: AtomicUsize::new(0),
         }
     }
@@ -100,16 +105,14 @@ impl Progress {
             b.set_message(label.to_string());
             b
         });
+        let number = self.started.fetch_add(1, Ordering::Relaxed) + 1;
         if self.mode == ProgressMode::Plain {
-            println!(
-                "[{}/{}] start  {label} ({id})",
-                self.finished.load(Ordering::Relaxed) + 1,
-                self.total
-            );
+            println!("[{number}/{}] start  {label} ({id})", self.total);
         }
         let now = Instant::now();
         CaseProgress {
             bar,
+            number,
             label: label.to_string(),
             t_end,
             started: now,
@@ -120,18 +123,25 @@ impl Progress {
     /// A case ended with `summary` (outcome or error).
     pub fn finish_case(&self, case: CaseProgress, summary: &str) {
         let n = self.finished.fetch_add(1, Ordering::Relaxed) + 1;
-        if let Some(b) = case.bar {
+        if let Some(b) = &case.bar {
             b.finish_and_clear();
-            self.multi.remove(&b);
+            self.multi.remove(b);
         }
         self.overall.inc(1);
-        let line = format!(
-            "[{n}/{}] done   {}: {summary} ({:.1} s)",
+        let line = self.done_line(&case, n, summary);
+        self.log(&line);
+    }
+
+    /// The log line of a case that ended as the `finished`-th: numbered as it started.
+    fn done_line(&self, case: &CaseProgress, finished: usize, summary: &str) -> String {
+        format!(
+            "[{}/{}] done   {}: {summary} ({:.1} s; {finished} of {} finished)",
+            case.number,
             self.total,
             case.label,
-            case.started.elapsed().as_secs_f64()
-        );
-        self.log(&line);
+            case.started.elapsed().as_secs_f64(),
+            self.total
+        )
     }
 
     /// The sweep ended.
@@ -141,6 +151,11 @@ impl Progress {
 }
 
 impl CaseProgress {
+    /// The case's label.
+    pub fn label(&self) -> &str {
+        &self.label
+    }
+
     /// Simulated time `t` reached after `step` steps.
     pub fn update(&mut self, t: f64, step: u64) {
         let Some(bar) = &self.bar else { return };
@@ -154,5 +169,23 @@ impl CaseProgress {
             "{} t={t:.3}/{} {rate:.1} steps/s",
             self.label, self.t_end
         ));
+    }
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    /// Two cases started before either ends have two numbers, and each keeps its number when it
+    /// ends, whatever the order (issue 28: the log numbered two different cases "[1/4] start").
+    #[test]
+    fn each_case_keeps_its_number_from_start_to_end() {
+        let p = Progress::new(ProgressMode::Quiet, 4);
+        let a = p.start_case("wi=1", "aaaaaaaaaaaaaaaa", 1.0);
+        let b = p.start_case("wi=2", "bbbbbbbbbbbbbbbb", 1.0);
+        assert_eq!((a.number, b.number), (1, 2));
+        let line = p.done_line(&b, 1, "string");
+        assert!(line.starts_with("[2/4] done   wi=2: string"), "{line}");
+        assert!(line.ends_with("1 of 4 finished)"), "{line}");
     }
 }

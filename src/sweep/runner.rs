@@ -88,7 +88,12 @@ impl CaseRunner for FakeRunner {
         let dt = case.numerics.dt;
         let steps = (case.numerics.t_end / dt).round() as u64;
         let mut t = 0.0;
-        for step in 1..=steps {
+        // a saved state is the step it was saved after: the trajectory is a function of the step
+        let first = obs
+            .resume_state()
+            .and_then(|s| serde_json::from_str::<u64>(&s).ok())
+            .map_or(1, |step| step + 1);
+        for step in first..=steps {
             t = step as f64 * dt;
             if !self.step_delay.is_zero() {
                 std::thread::sleep(self.step_delay);
@@ -117,6 +122,9 @@ impl CaseRunner for FakeRunner {
                     steps: step,
                     t,
                 };
+            }
+            if obs.state_due(step) {
+                obs.save_state(step, &step.to_string());
             }
         }
         CaseResult {

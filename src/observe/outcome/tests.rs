@@ -158,3 +158,32 @@ fn a_chain_held_to_the_end_is_a_drifting_string() {
         json!(true)
     );
 }
+
+/// A particle centre outside the domain is an impossible state: `diverged` with the reason, not
+/// `wall_contact` with a mean gap of thousands of radii (issue 28: y = −0.94 in a channel of
+/// half-height 0.5 after one step at Wi = 50, Δt = 20).
+#[test]
+fn a_particle_outside_the_domain_diverges_with_the_reason() {
+    let spec = shear(2);
+    let mut c = Classifier::new(&spec);
+    let mut s = synthetic::sample(OutcomeKind::Timeout, &spec, 1, DT);
+    s.particles[1].y = -0.94;
+    let o = c.push(&s).expect("decided at once");
+    assert_eq!(o.kind, OutcomeKind::Diverged);
+    let reason = o.final_state["reason"].as_str().unwrap();
+    assert!(
+        reason.contains("particle 1 at y = -0.94") && reason.contains("outside the channel"),
+        "{reason}"
+    );
+    assert_eq!(o.mean_gap, None);
+    let spec = couette();
+    let mut c = Classifier::new(&spec);
+    let mut s = synthetic::sample(OutcomeKind::Timeout, &spec, 1, DT);
+    s.particles[0].x = 4.5;
+    let o = c.push(&s).unwrap();
+    assert_eq!(o.kind, OutcomeKind::Diverged);
+    assert!(o.final_state["reason"]
+        .as_str()
+        .unwrap()
+        .contains("outside the gap"));
+}

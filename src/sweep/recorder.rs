@@ -1,0 +1,315 @@
+//! The observer the engine gives a runner ([`Recorder`]): classifies every step, keeps every k-th
+//! sample, checkpoints samples, writes snapshots and saved solver states (the resume files of
+//! [`resume_path`]) and drives the case's progress bar. A snapshot or state that cannot be written
+//! stops the case: it is recorded as failed with the error (docs/sweeps.md).
+
+use std::path::PathBuf;
+use std::time::{Duration, Instant};
+
+use super::engine::CaseContext;
+use super::progress::{CaseProgress, Progress};
+use crate::config::CaseSpec;
+use crate::observe::{CaseObserver, Classifier, Control, FieldSnapshot, OutcomeKind, Sample};
+use crate::store::snapshot::SnapshotWriter;
+use crate::store::Store;
+
+/// Sample rows buffered before a checkpoint writes them, bounding memory of long cases.
+const CHECKPOINT_ROWS: usize = 50_000;
+
+/// The observer the engine gives a runner: classifies every step, keeps every k-th sample, checkpoints,
+/// writes snapshots and drives the case's progress bar.
+pub(super) struct Recorder<'a> {
+    store: &'a mut Store,
+    case_id: i64,
+    hash: &'a str,
+    spec: &'a CaseSpec,
+    pub(super) classifier: Classifier,
+    pub(super) buffer: Vec<Sample>,
+    pub(super) last: Option<Sample>,
+    pub(super) stored_step: Option<u64>,
+    last_flush: Instant,
+    checkpoint_every: Duration,
+    snapshot_dir: &'a PathBuf,
+    snapshots: Option<SnapshotWriter>,
+    /// The first snapshot that could not be written: the case stops and fails.
+    pub(super) snapshot_error: Option<String>,
+    pub(super) bar: Option<CaseProgress>,
+    progress: &'a Progress,
+    /// Where the solver state goes ([`resume_path`]).
+    pub(super) resume_path: PathBuf,
+    state_every: Duration,
+    last_state: Instant,
+    /// The first saved state that could not be written: the case stops and fails (a case
+    /// without its saved states would lose all its work to a kill).
+    pub(super) state_error: Option<String>,
+    /// The state a resumed case continues from, until the runner takes it.
+    resume_state: Option<String>,
+    /// The step a resumed case continues after (its snapshots up to there are kept).
+    resumed_at: Option<u64>,
+    /// Wall-clock seconds spent on the case by earlier, interrupted attempts.
+    wall_before: f64,
+    started: Instant,
+}
+
+impl<'a> Recorder<'a> {
+    pub(super) fn new(
+        store: &'a mut Store,
+        case_id: i64,
+        spec: &'a CaseSpec,
+        hash: &'a str,
+        ctx: &CaseContext<'a>,
+        bar: CaseProgress,
+    ) -> Self {
+        Recorder {
+            store,
+            case_id,
+            hash,
+            spec,
+            classifier: Classifier::new(spec),
+            buffer: Vec::new(),
+            last: None,
+            stored_step: None,
+            last_flush: Instant::now(),
+            checkpoint_every: ctx.opts.checkpoint_every,
+            snapshot_dir: ctx.snapshot_dir,
+            snapshots: None,
+            snapshot_error: None,
+            bar: Some(bar),
+            progress: ctx.progress,
+            resume_path: resume_path(&ctx.opts.db, hash),
+            state_every: ctx.opts.state_every,
+            last_state: Instant::now(),
+            state_error: None,
+            resume_state: None,
+            resumed_at: None,
+            wall_before: 0.0,
+            started: Instant::now(),
+        }
+    }
+
+    /// Wall-clock seconds spent on the case so far, over all attempts.
+    pub(super) fn wall_s(&self) -> f64 {
+        self.wall_before + self.started.elapsed().as_secs_f64()
+    }
+
+    /// Continues an interrupted attempt: the classifier, the last sample and the solver state as
+    /// they were saved.
+    pub(super) fn resume_from(&mut self, r: ResumeFile) {
+        self.classifier = r.classifier;
+        self.stored_step = r.stored_step;
+        self.last = Some(r.last);
+        self.wall_before = r.wall_s;
+        self.resumed_at = Some(r.step);
+        self.resume_state = Some(r.solver.get().to_string());
+    }
+
+    /// Writes the resume file for `step` (samples flushed first, so that the database holds every
+    /// sample up to `step` whenever the file says so).
+    fn write_state(&mut self, step: u64, state: &str) -> Result<(), String> {
+        let Some(last) = self.last.clone().filter(|s| s.step == step) else {
+            return Err(format!("step {step} was not reported before its state"));
+        };
+        self.flush();
+        if !self.buffer.is_empty() {
+            return Err("samples could not be written".into());
+        }
+        let rows = self
+            .store
+            .count_samples(self.case_id, step)
+            .map_err(|e| e.to_string())?;
+        let file = ResumeFile {
+            format: RESUME_FORMAT,
+            case_hash: self.hash.to_string(),
+            code_version: crate::store::code_version(),
+            step,
+            t: last.t,
+            rows,
+            stored_step: self.stored_step,
+            last,
+            classifier: self.classifier.clone(),
+            wall_s: self.wall_s(),
+            solver: serde_json::value::RawValue::from_string(state.to_string())
+                .map_err(|e| format!("solver state is not JSON: {e}"))?,
+        };
+        let json = serde_json::to_string(&file).map_err(|e| e.to_string())?;
+        let io = |e: std::io::Error| format!("{}: {e}", self.resume_path.display());
+        if let Some(dir) = self.resume_path.parent() {
+            std::fs::create_dir_all(dir).map_err(io)?;
+        }
+        // write-then-rename: a kill leaves the previous state or this one, never half of one
+        let tmp = self.resume_path.with_extension("json.tmp");
+        std::fs::write(&tmp, json).map_err(io)?;
+        std::fs::rename(&tmp, &self.resume_path).map_err(io)
+    }
+
+    /// Keeps the first snapshot (`what` = "snapshot") or saved-state error and says so at once.
+    fn io_failed(&mut self, what: &str, error: String) {
+        let label = self.spec_label();
+        let slot = if what == "snapshot" {
+            &mut self.snapshot_error
+        } else {
+            &mut self.state_error
+        };
+        if slot.is_none() {
+            self.progress.log(&format!(
+                "error: case {} ({label}): {what}: {error}; the case stops and is recorded as failed",
+                self.hash,
+            ));
+            *slot = Some(error);
+        }
+    }
+
+    /// The case's label as its progress bar shows it.
+    fn spec_label(&self) -> String {
+        self.bar
+            .as_ref()
+            .map_or_else(String::new, |b| b.label().to_string())
+    }
+
+    fn flush(&mut self) {
+        if self.buffer.is_empty() {
+            return;
+        }
+        // A failed checkpoint is not fatal: the samples stay buffered for the final transaction.
+        if self.store.write_samples(self.case_id, &self.buffer).is_ok() {
+            self.stored_step = self.buffer.last().map(|s| s.step);
+            self.buffer.clear();
+        }
+        self.last_flush = Instant::now();
+    }
+}
+
+impl CaseObserver for Recorder<'_> {
+    fn on_step(&mut self, sample: &Sample) -> Control {
+        self.classifier.push(sample);
+        if sample.step.is_multiple_of(self.spec.output.sample_every) {
+            self.buffer.push(sample.clone());
+        }
+        self.last = Some(sample.clone());
+        if let Some(bar) = &mut self.bar {
+            bar.update(sample.t, sample.step);
+        }
+        let rows = self.buffer.len() * sample.particles.len().max(1);
+        if rows >= CHECKPOINT_ROWS || self.last_flush.elapsed() >= self.checkpoint_every {
+            self.flush();
+        }
+        if self.snapshot_error.is_some() || self.state_error.is_some() {
+            // the case cannot give what was asked (its snapshots, or its protection against a
+            // kill): stop now rather than after hours, it fails with the error
+            return Control::Stop;
+        }
+        match self.classifier.decided() {
+            Some(o) if o.kind == OutcomeKind::Diverged || self.spec.stop.early_stop => {
+                Control::Stop
+            }
+            _ => Control::Continue,
+        }
+    }
+
+    fn snapshot_due(&self, step: u64) -> bool {
+        let every = self.spec.output.snapshot_every;
+        every > 0 && step.is_multiple_of(every)
+    }
+
+    fn on_snapshot(&mut self, snapshot: &FieldSnapshot) {
+        if self.snapshots.is_none() && self.snapshot_error.is_none() {
+            let opened = match self.resumed_at {
+                Some(step) => SnapshotWriter::reopen(self.snapshot_dir, self.hash, step),
+                None => SnapshotWriter::create(self.snapshot_dir, self.hash),
+            };
+            match opened {
+                Ok(w) => self.snapshots = Some(w),
+                Err(e) => self.io_failed("snapshot", e.to_string()),
+            }
+        }
+        let Some(w) = &mut self.snapshots else { return };
+        let file = w.h5_path().display().to_string();
+        let written = w.write(snapshot).and_then(|_| {
+            self.store
+                .record_snapshot(self.case_id, snapshot.step, snapshot.t, &file)
+        });
+        if let Err(e) = written {
+            self.io_failed("snapshot", e.to_string());
+        }
+    }
+
+    fn checkpoint(&mut self) {
+        self.flush();
+    }
+
+    fn state_due(&self, _step: u64) -> bool {
+        self.last_state.elapsed() >= self.state_every
+    }
+
+    fn save_state(&mut self, step: u64, state: &str) {
+        if let Err(e) = self.write_state(step, state) {
+            self.io_failed("saved state", e);
+        }
+        self.last_state = Instant::now();
+    }
+
+    fn resume_state(&mut self) -> Option<String> {
+        self.resume_state.take()
+    }
+}
+
+/// Where the saved state of case `hash` of database `db` lives: `<db dir>/<db stem>/<hash>.resume.json`
+/// (beside the snapshots when the sweep is named like its database, the default), whichever sweep
+/// invocation runs the case.
+pub fn resume_path(db: &std::path::Path, hash: &str) -> PathBuf {
+    let stem = db
+        .file_stem()
+        .map_or_else(|| "results".into(), |s| s.to_string_lossy().into_owned());
+    db.parent()
+        .unwrap_or_else(|| std::path::Path::new("."))
+        .join(stem)
+        .join(format!("{hash}.resume.json"))
+}
+
+/// The step, time and writing build of the saved state of a case, if it has a readable one.
+pub fn saved_state(db: &std::path::Path, hash: &str) -> Option<(u64, f64, String)> {
+    #[derive(serde::Deserialize)]
+    struct Header {
+        format: u32,
+        code_version: String,
+        step: u64,
+        t: f64,
+    }
+    let text = std::fs::read_to_string(resume_path(db, hash)).ok()?;
+    serde_json::from_str::<Header>(&text)
+        .ok()
+        .filter(|h| h.format == RESUME_FORMAT)
+        .map(|h| (h.step, h.t, h.code_version))
+}
+
+/// Layout version of the resume file.
+const RESUME_FORMAT: u32 = 1;
+
+/// A running case's saved state: what the observer had seen (classifier, last sample, how many
+/// sample rows the database held) and the runner's own state, after one step.
+#[derive(serde::Serialize, serde::Deserialize)]
+pub(super) struct ResumeFile {
+    format: u32,
+    case_hash: String,
+    /// The build that wrote it (a resumed case may finish with another; the log says so).
+    pub(super) code_version: String,
+    pub(super) step: u64,
+    pub(super) t: f64,
+    /// Sample rows of the case with step ≤ `step` when it was written.
+    pub(super) rows: u64,
+    stored_step: Option<u64>,
+    last: Sample,
+    classifier: Classifier,
+    wall_s: f64,
+    solver: Box<serde_json::value::RawValue>,
+}
+
+impl ResumeFile {
+    /// The saved state of case `hash`, if there is a readable one of this layout.
+    pub(super) fn load(path: &std::path::Path, hash: &str) -> Option<ResumeFile> {
+        let text = std::fs::read_to_string(path).ok()?;
+        serde_json::from_str::<ResumeFile>(&text)
+            .ok()
+            .filter(|r| r.format == RESUME_FORMAT && r.case_hash == hash)
+    }
+}
