@@ -29,12 +29,15 @@ pub const MAX_RADII_PER_STEP: f64 = 0.5;
 /// Memory of a case beyond its mesh (code, quadrature tables, buffers), bytes.
 const BASE_BYTES: f64 = 64e6;
 /// Bytes per element with the explicit stress coupling, and without polymer. Measured peak
-/// resident memory (`xpflow run`, three particles, 2 steps): 124 MB at 100×25, 440 MB at 200×50,
-/// 1.79 GB at 400×100 (45 kB per element); Newtonian 1.57 GB at 400×100; Couette 416 MB at
-/// 50×200. With ~10 % margin.
-const EXPLICIT_BYTES_PER_ELEMENT: f64 = 50e3;
-/// Bytes per element with G solved with the flow (`explicit_coupled_g`): 779 MB at 200×50.
-const COUPLED_G_BYTES_PER_ELEMENT: f64 = 90e3;
+/// resident memory (`xpflow run`, three particles, 2 steps) with the flow factored whole: 124 MB
+/// at 100×25, 440 MB at 200×50, 1.79 GB at 400×100 (45 kB per element); Newtonian 1.57 GB at
+/// 400×100; Couette 416 MB at 50×200. With the band factorization (the default: far-field factor
+/// with its dense interface block, the band's, and the condensation's dense temporaries):
+/// 706 MB at 200×50, 2.41 GB at 400×100 (70 and 60 kB per element). With ~10 % margin.
+const EXPLICIT_BYTES_PER_ELEMENT: f64 = 75e3;
+/// Bytes per element with G solved with the flow (`explicit_coupled_g`): 779 MB at 200×50 whole,
+/// 1.35 GB with the band factorization.
+const COUPLED_G_BYTES_PER_ELEMENT: f64 = 145e3;
 /// The semi-implicit coupling's LU factors grow faster than the element count E: measured
 /// 461 MB at 100×25, 2.16 GB at 200×50, 12.1 GB at 400×100, i.e. ≈ 21.5 kB × E^1.25; with margin.
 const SEMI_IMPLICIT_BYTES: f64 = 25e3;
