@@ -156,7 +156,7 @@ pub struct MovingBench {
     pub placements: usize,
     /// Steps of the run (warm-up included).
     pub run_steps: usize,
-    /// Peak resident memory of the process (MB), if readable.
+    /// Peak resident memory (MB) the run added ([`moving`]), if readable.
     pub peak_rss_mb: Option<f64>,
 }
 
@@ -209,9 +209,12 @@ pub fn moving_case(
     }))
 }
 
-/// One viscoelastic time step of [`moving_case`], built by [`crate::simulate::Simulation::new`] as every case
-/// is: `warm_up` untimed steps, then medians over `steps` steps. The peak memory is that of this
-/// run if the process's peak can be reset ([`reset_peak_rss`]), else the process's.
+/// One viscoelastic time step of [`moving_case`], built by [`crate::simulate::Simulation::new`]
+/// as every case is, once per flow factorization of `factorizations`: each built and stepped
+/// `warm_up` untimed steps in turn, then their timed steps alternated (one of each in turn, so
+/// that a machine whose speed drifts slows them alike), medians over `steps` steps. The memory
+/// reported is the peak resident memory a path added while it was built and warmed up (the
+/// process's peak reset before, [`reset_peak_rss`]; the process's peak if it cannot be reset).
 ///
 /// # Errors
 /// The case's validation error, a set-up or step failure, or particles touching.
@@ -225,58 +228,91 @@ pub fn moving(
     coupled_g: bool,
     follow: Option<f64>,
     cut: Option<(u32, crate::config::InterfaceRule)>,
-    factorization: crate::fem::substructure::Factorization,
-) -> anyhow::Result<MovingBench> {
+    factorizations: &[crate::fem::substructure::Factorization],
+) -> anyhow::Result<Vec<MovingBench>> {
     use crate::simulate::Simulation;
     use crate::solver::moving::StepOutcome;
-    let case = moving_case(nx, ny, n, coupled_g, follow, cut, factorization)?;
-    reset_peak_rss();
-    let mut sim = Simulation::new(&case)?;
-    let mut reports = Vec::new();
-    for k in 0..warm_up + steps {
+    use crate::solver::viscoelastic::StepTimings;
+    let step = |sim: &mut Simulation| -> anyhow::Result<StepTimings> {
         match sim.step()? {
-            StepOutcome::Stepped(r) if k >= warm_up => reports.push(r),
-            StepOutcome::Stepped(_) => {}
+            StepOutcome::Stepped(r) => Ok(r.timings),
             StepOutcome::Contact(c) | StepOutcome::ContactAfter(_, c) => {
                 anyhow::bail!("bench: particles touched: {c}")
             }
         }
-    }
-    let med = |f: &dyn Fn(&crate::solver::viscoelastic::StepTimings) -> f64| {
-        median(reports.iter().map(|r| f(&r.timings)).collect())
     };
-    Ok(MovingBench {
-        mesh: match follow {
-            Some(r) => format!("{nx}x{ny} following ×{r}"),
-            None => format!("{nx}x{ny}"),
-        },
-        particles: n,
-        unknowns: sim.stepper().flow().sizes(),
-        steps,
-        median: crate::solver::viscoelastic::StepTimings {
-            ale: med(&|t| t.ale),
-            classify: med(&|t| t.classify),
-            flow_assembly: med(&|t| t.flow_assembly),
-            flow_symbolic: med(&|t| t.flow_symbolic),
-            flow_factor: med(&|t| t.flow_factor),
-            flow_solve: med(&|t| t.flow_solve),
-            gradient_projection: med(&|t| t.gradient_projection),
-            transport: crate::solver::constitutive::TransportTimings {
-                assembly: med(&|t| t.transport.assembly),
-                symbolic: med(&|t| t.transport.symbolic),
-                factor: med(&|t| t.transport.factor),
-                solve: med(&|t| t.transport.solve),
-            },
-            conformation_projection: med(&|t| t.conformation_projection),
-            total: med(&|t| t.total),
-        },
-        pattern_rebuilds: sim.stepper().flow().pattern_rebuilds(),
-        flow_factorizations: sim.stepper().flow().flow_refactorizations(),
-        factorization,
-        placements: sim.stepper().flow().flow_placements(),
-        run_steps: warm_up + steps,
-        peak_rss_mb: peak_rss_mb(),
-    })
+    let mut sims = Vec::new();
+    let mut memory = Vec::new();
+    for &f in factorizations {
+        let case = moving_case(nx, ny, n, coupled_g, follow, cut, f)?;
+        let before = current_rss_mb();
+        let reset = reset_peak_rss();
+        let mut sim = Simulation::new(&case)?;
+        for _ in 0..warm_up {
+            step(&mut sim)?;
+        }
+        memory.push(match (reset, before, peak_rss_mb()) {
+            (true, Some(b), Some(p)) => Some(p - b),
+            (_, _, p) => p,
+        });
+        sims.push(sim);
+    }
+    let mut timings: Vec<Vec<StepTimings>> = vec![Vec::new(); sims.len()];
+    for _ in 0..steps {
+        for (sim, t) in sims.iter_mut().zip(&mut timings) {
+            t.push(step(sim)?);
+        }
+    }
+    let benches = sims
+        .iter()
+        .zip(&timings)
+        .zip(factorizations.iter().zip(memory))
+        .map(|((sim, reports), (&factorization, peak_rss_mb))| {
+            let med = |f: &dyn Fn(&StepTimings) -> f64| median(reports.iter().map(f).collect());
+            let flow = sim.stepper().flow();
+            MovingBench {
+                mesh: match follow {
+                    Some(r) => format!("{nx}x{ny} following ×{r}"),
+                    None => format!("{nx}x{ny}"),
+                },
+                particles: n,
+                unknowns: flow.sizes(),
+                steps,
+                median: StepTimings {
+                    ale: med(&|t| t.ale),
+                    classify: med(&|t| t.classify),
+                    flow_assembly: med(&|t| t.flow_assembly),
+                    flow_symbolic: med(&|t| t.flow_symbolic),
+                    flow_factor: med(&|t| t.flow_factor),
+                    flow_solve: med(&|t| t.flow_solve),
+                    gradient_projection: med(&|t| t.gradient_projection),
+                    transport: crate::solver::constitutive::TransportTimings {
+                        assembly: med(&|t| t.transport.assembly),
+                        symbolic: med(&|t| t.transport.symbolic),
+                        factor: med(&|t| t.transport.factor),
+                        solve: med(&|t| t.transport.solve),
+                    },
+                    conformation_projection: med(&|t| t.conformation_projection),
+                    total: med(&|t| t.total),
+                },
+                pattern_rebuilds: flow.pattern_rebuilds(),
+                flow_factorizations: flow.flow_refactorizations(),
+                factorization,
+                placements: flow.flow_placements(),
+                run_steps: warm_up + steps,
+                peak_rss_mb,
+            }
+        })
+        .collect();
+    Ok(benches)
+}
+
+/// Current resident set size of this process in MB (Linux `VmRSS`).
+pub fn current_rss_mb() -> Option<f64> {
+    let status = std::fs::read_to_string("/proc/self/status").ok()?;
+    let line = status.lines().find(|l| l.starts_with("VmRSS:"))?;
+    let kb: f64 = line.split_whitespace().nth(1)?.parse().ok()?;
+    Some(kb / 1024.0)
 }
 
 impl MovingBench {

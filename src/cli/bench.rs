@@ -39,24 +39,20 @@ pub(super) fn bench(command: Command) -> anyhow::Result<ExitCode> {
                 let (nx, ny) = parse_mesh(m)?;
                 for &n in &particles {
                     let cut = Some((cut_level, interface.into()));
-                    let runs = paths
-                        .iter()
-                        .map(|&f| {
-                            let b = crate::bench::moving(
-                                nx,
-                                ny,
-                                n,
-                                3,
-                                repeats.max(1),
-                                with_g,
-                                follow,
-                                cut,
-                                f,
-                            )?;
-                            println!("{}", b.to_row());
-                            Ok(b)
-                        })
-                        .collect::<anyhow::Result<Vec<_>>>()?;
+                    let runs = crate::bench::moving(
+                        nx,
+                        ny,
+                        n,
+                        3,
+                        repeats.max(1),
+                        with_g,
+                        follow,
+                        cut,
+                        paths,
+                    )?;
+                    for b in &runs {
+                        println!("{}", b.to_row());
+                    }
                     if let [new, old] = runs.as_slice() {
                         println!("{}", crate::bench::ratio_row(new, old));
                         closing.push(crate::bench::step_line(new, old));

@@ -77,8 +77,12 @@ pub struct Substructured {
     m_solver: DirectSolver,
     /// Whether M is factored with its current values.
     m_factored: bool,
-    /// Work vectors in K and M numbering, and z_Γ.
+    /// The first of K's trailing supernodes, which hold Γ, and its first position.
+    k_trailing: (usize, usize),
+    /// Work vectors in K and M numbering, z_Γ, and two in K's factor positions.
     kb: Vec<f64>,
+    y: Vec<f64>,
+    v: Vec<f64>,
     mb: Vec<f64>,
     z: Vec<f64>,
     last_polish: usize,
@@ -143,12 +147,16 @@ impl Substructured {
         k_solver.factor(&k)?;
         let gamma_k: Vec<usize> = (n_far..k_dofs.len()).collect();
         let schur = k_solver.schur_complement(&gamma_k)?;
+        let k_trailing = k_solver.trailing_supernodes(&gamma_k)?;
 
         let (m, m_src) = submatrix(a, &m_dofs, Some(n_interior));
         let m_order: Vec<usize> = (0..m_dofs.len()).collect();
         let m_solver = DirectSolver::analyze_with_order(&m, SolverKind::Lblt, &m_order)?;
         Ok(Self {
             kb: vec![0.0; k_dofs.len()],
+            y: vec![0.0; k_dofs.len()],
+            v: vec![0.0; k_dofs.len()],
+            k_trailing,
             mb: vec![0.0; m_dofs.len()],
             z: vec![0.0; n_gamma],
             k_dofs,
@@ -229,16 +237,25 @@ impl Substructured {
             return Err(SolveError::NotFactored);
         }
         let (nf, ni) = (self.n_far, self.n_interior);
-        let ng = self.z.len();
-        // K [z_F; z_Γ] = [b_F; 0]
-        for (k, &d) in self.k_dofs.iter().enumerate() {
-            self.kb[k] = if k < nf { rhs[d] } else { 0.0 };
+        let k = &self.k_solver;
+        let at = k.positions();
+        let (s0, p1) = self.k_trailing;
+        // K [z_F; z_Γ] = [b_F; 0]: the forward substitution y = L⁻¹ P D [b_F; 0] is kept for the
+        // second solve; z_Γ needs B⁻¹ and L⁻ᵀ on the trailing supernodes (which hold Γ) only
+        for (kb, &d) in self.kb.iter_mut().zip(&self.k_dofs[..nf]) {
+            *kb = rhs[d];
         }
-        self.k_solver.solve_in_place(&mut self.kb)?;
+        self.kb[nf..].iter_mut().for_each(|v| *v = 0.0);
+        k.to_positions(&self.kb, at, &mut self.y);
+        k.forward(&mut self.y, 0)?;
+        self.v.copy_from_slice(&self.y);
+        k.diagonal(&mut self.v, s0)?;
+        k.backward(&mut self.v, s0)?;
+        k.from_positions(&self.v, at, &mut self.kb);
         self.z.copy_from_slice(&self.kb[nf..]);
         // M [x_I; x_Γ] = [b_I; b_Γ + S z_Γ]
-        for (k, &d) in self.m_dofs.iter().enumerate() {
-            self.mb[k] = rhs[d];
+        for (mb, &d) in self.mb.iter_mut().zip(&self.m_dofs) {
+            *mb = rhs[d];
         }
         gemv(
             ColMut::from_slice_mut(&mut self.mb[ni..]),
@@ -246,27 +263,32 @@ impl Substructured {
             ColRef::from_slice(&self.z),
         );
         self.m_solver.solve_in_place(&mut self.mb)?;
-        // K [x_F; x_Γ] = [b_F; S (x_Γ − z_Γ)]
-        for (k, &d) in self.k_dofs[..nf].iter().enumerate() {
-            self.kb[k] = rhs[d];
-        }
+        // K [x_F; x_Γ] = [b_F; S (x_Γ − z_Γ)]: L⁻¹ of the right-hand side is y plus L⁻¹ of its
+        // Γ part, which lives in the trailing supernodes
         for (z, x) in self.z.iter_mut().zip(&self.mb[ni..]) {
             *z = x - *z;
         }
-        self.kb[nf..].iter_mut().for_each(|v| *v = 0.0);
+        self.kb.iter_mut().for_each(|v| *v = 0.0);
         gemv(
             ColMut::from_slice_mut(&mut self.kb[nf..]),
             &self.schur,
             ColRef::from_slice(&self.z),
         );
-        self.k_solver.solve_in_place(&mut self.kb)?;
-        for (k, &d) in self.k_dofs[..nf].iter().enumerate() {
-            rhs[d] = self.kb[k];
+        k.to_positions(&self.kb, at, &mut self.v);
+        k.forward(&mut self.v, s0)?;
+        for (v, y) in self.v[p1..].iter_mut().zip(&self.y[p1..]) {
+            *v += y;
         }
-        for (k, &d) in self.m_dofs.iter().enumerate() {
-            rhs[d] = self.mb[k];
+        self.v[..p1].copy_from_slice(&self.y[..p1]);
+        k.diagonal(&mut self.v, 0)?;
+        k.backward(&mut self.v, 0)?;
+        k.from_positions(&self.v, at, &mut self.kb);
+        for (kb, &d) in self.kb.iter().zip(&self.k_dofs[..nf]) {
+            rhs[d] = *kb;
         }
-        debug_assert_eq!(ng, self.m_dofs.len() - ni);
+        for (mb, &d) in self.mb.iter().zip(&self.m_dofs) {
+            rhs[d] = *mb;
+        }
         Ok(())
     }
 

@@ -12,8 +12,7 @@ use dyn_stack::{MemBuffer, MemStack, StackReq};
 use faer::linalg::cholesky::lblt::factor::LbltParams;
 use faer::perm::PermRef;
 use faer::sparse::linalg::cholesky::{
-    factorize_symbolic_cholesky, CholeskySymbolicParams, IntranodeLbltRef, SymbolicCholesky,
-    SymmetricOrdering,
+    factorize_symbolic_cholesky, CholeskySymbolicParams, SymbolicCholesky, SymmetricOrdering,
 };
 use faer::sparse::linalg::lu::{
     factorize_symbolic_lu, LuRef, LuSymbolicParams, NumericLu, SymbolicLu,
@@ -26,6 +25,7 @@ use super::sparse::SparseMatrix;
 
 mod order;
 mod schur;
+mod trisolve;
 
 use order::block_amd_ordering;
 pub use order::DofBlocks;
@@ -95,6 +95,10 @@ pub struct DirectSolver {
     scale: Vec<f64>,
     scaled: Option<SparseMatrix>,
     last_polish: usize,
+    /// LBLᵀ: the dof at each position of the elimination order of the last factorization (the
+    /// pivoting changes it), and a work vector by position.
+    at: Vec<usize>,
+    work: Vec<f64>,
 }
 
 impl std::fmt::Debug for DirectSolver {
@@ -217,7 +221,15 @@ impl DirectSolver {
             scale: Vec::new(),
             scaled: None,
             last_polish: 0,
+            at: Vec::new(),
+            work: Vec::new(),
         })
+    }
+
+    /// LBLᵀ: the dof at each position of the elimination order of the last factorization
+    /// (empty before one).
+    pub fn positions(&self) -> &[usize] {
+        &self.at
     }
 
     /// The factorization kind.
@@ -276,6 +288,10 @@ impl DirectSolver {
             }
         }
         self.factored = true;
+        if matches!(self.backend, Backend::Lblt { .. }) {
+            self.at = self.dof_at_positions();
+            self.work.resize(self.n, 0.0);
+        }
         Ok(())
     }
 
@@ -284,34 +300,29 @@ impl DirectSolver {
         if !self.factored {
             return Err(SolveError::NotFactored);
         }
+        if let Backend::Lblt { .. } = self.backend {
+            // by parts, with plain loops: faer's supernodal solve pays a dispatch per supernode
+            // (thousands of small ones in a nested-dissection order)
+            let mut v = std::mem::take(&mut self.work);
+            self.to_positions(rhs, &self.at, &mut v);
+            self.forward(&mut v, 0)?;
+            self.diagonal(&mut v, 0)?;
+            self.backward(&mut v, 0)?;
+            self.from_positions(&v, &self.at, rhs);
+            self.work = v;
+            return Ok(());
+        }
         let n = self.n;
         rhs.iter_mut().zip(&self.scale).for_each(|(b, d)| *b *= d);
         let stack = MemStack::new(&mut self.buffer);
         let x = MatMut::from_column_major_slice_mut(&mut *rhs, n, 1);
-        match &self.backend {
-            Backend::Lblt {
-                symbolic,
-                l_values,
-                subdiag,
-                perm_fwd,
-                perm_inv,
-            } => {
-                let perm = PermRef::new_checked(perm_fwd, perm_inv, n);
-                IntranodeLbltRef::new(symbolic, l_values, subdiag, perm).solve_in_place_with_conj(
-                    Conj::No,
-                    x,
-                    Par::Seq,
-                    stack,
-                );
-            }
-            Backend::Lu { symbolic, numeric } => {
-                LuRef::new_unchecked(symbolic, numeric).solve_in_place_with_conj(
-                    Conj::No,
-                    x,
-                    Par::Seq,
-                    stack,
-                );
-            }
+        if let Backend::Lu { symbolic, numeric } = &self.backend {
+            LuRef::new_unchecked(symbolic, numeric).solve_in_place_with_conj(
+                Conj::No,
+                x,
+                Par::Seq,
+                stack,
+            );
         }
         rhs.iter_mut().zip(&self.scale).for_each(|(x, d)| *x *= d);
         Ok(())
