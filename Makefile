@@ -4,7 +4,7 @@
 
 CARGO   ?= cargo
 PROFILE := --release
-BIN     := target/release/xpflow
+BIN     := $(or $(CARGO_TARGET_DIR),target)/release/xpflow
 SUDO    := $(shell [ "$$(id -u)" = 0 ] || echo sudo)
 
 .PHONY: all deps build test lint demo validate bench figures clean-results
