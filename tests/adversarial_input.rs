@@ -16,7 +16,7 @@ use xpflow::cli::Cli;
 use xpflow::config::SweepSpec;
 use xpflow::observe::OutcomeKind;
 use xpflow::store::Format;
-use xpflow::sweep::expand::{expand_at_most, DEFAULT_MAX_CASES};
+use xpflow::sweep::expand::expand_at_most;
 use xpflow::sweep::{expand, FakeBehaviour, FakeRunner};
 
 fn scratch(name: &str) -> Scratch {
@@ -35,18 +35,7 @@ fluid.wi = [1, 2]
 "#;
 
 fn args(file: &Path, db: &Path) -> SweepArgs {
-    SweepArgs {
-        file: file.into(),
-        db: Some(db.into()),
-        jobs: Some(2),
-        dry_run: false,
-        resolved: false,
-        quiet: true,
-        retry_failed: false,
-        state_every: 5.0,
-        max_memory: None,
-        max_cases: DEFAULT_MAX_CASES,
-    }
+    common::sweep_args(file, db)
 }
 
 fn runner() -> FakeRunner {

@@ -20,18 +20,7 @@ fn scratch(name: &str) -> Scratch {
 }
 
 fn args(file: &Path, db: &Path) -> SweepArgs {
-    SweepArgs {
-        file: file.into(),
-        db: Some(db.into()),
-        jobs: Some(2),
-        dry_run: false,
-        resolved: false,
-        quiet: true,
-        retry_failed: false,
-        state_every: 5.0,
-        max_memory: None,
-        max_cases: xpflow::sweep::expand::DEFAULT_MAX_CASES,
-    }
+    common::sweep_args(file, db)
 }
 
 const GOOD: &str = r#"

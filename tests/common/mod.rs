@@ -39,3 +39,21 @@ impl Drop for Scratch {
         }
     }
 }
+
+/// The sweep command's arguments for `file` into `db`: two jobs, quiet, no limits beyond the
+/// defaults (tests change fields with struct update syntax).
+#[allow(dead_code)] // not every test binary runs sweeps
+pub fn sweep_args(file: &Path, db: &Path) -> xpflow::cli::sweep_cmds::SweepArgs {
+    xpflow::cli::sweep_cmds::SweepArgs {
+        file: file.into(),
+        db: Some(db.into()),
+        jobs: Some(2),
+        dry_run: false,
+        resolved: false,
+        quiet: true,
+        retry_failed: false,
+        state_every: 5.0,
+        max_memory: None,
+        max_cases: xpflow::sweep::expand::DEFAULT_MAX_CASES,
+    }
+}

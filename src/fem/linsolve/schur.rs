@@ -9,12 +9,10 @@
 //! eliminated densely.
 
 use faer::linalg::matmul::matmul;
-use faer::sparse::linalg::cholesky::{supernodal::SupernodalIntranodeLbltRef, SymbolicCholeskyRaw};
+use faer::prelude::Solve;
 use faer::{Accum, Mat, Par};
 
-use super::{Backend, DirectSolver, SolveError};
-use faer::perm::PermRef;
-use faer::prelude::Solve;
+use super::{DirectSolver, SolveError};
 
 /// Largest number of dofs, as a multiple of the requested ones plus [`MAX_EXTRA`], that
 /// [`DirectSolver::schur_complement`] reconstructs densely (the rest is a caller's ordering
@@ -34,38 +32,9 @@ impl DirectSolver {
     /// first of `dofs` (about |Γ| when Γ forms the root supernode), instead of the |Γ| solves
     /// with the whole factor that A_RR⁻¹ A_RΓ would take.
     pub fn schur_complement(&self, dofs: &[usize]) -> Result<Mat<f64>, SolveError> {
-        if !self.factored {
-            return Err(SolveError::NotFactored);
-        }
-        let Backend::Lblt {
-            symbolic,
-            l_values,
-            subdiag,
-            perm_fwd,
-            perm_inv,
-        } = &self.backend
-        else {
-            return Err(SolveError::Symbolic(
-                "Schur complement needs the LBLᵀ factorization".into(),
-            ));
-        };
-        let SymbolicCholeskyRaw::Supernodal(sn) = symbolic.raw() else {
-            return Err(SolveError::Symbolic(
-                "Schur complement needs a supernodal factorization".into(),
-            ));
-        };
+        let parts = self.parts()?;
         let n = self.n;
-        // position in the factor of each dof: fill-reducing order, then the intranode pivots
-        let (fill_fwd, fill_inv): (Vec<usize>, Vec<usize>) = match symbolic.perm() {
-            Some(p) => (p.arrays().0.to_vec(), p.arrays().1.to_vec()),
-            None => ((0..n).collect(), (0..n).collect()),
-        };
-        let position = |d: usize| perm_inv[fill_inv[d]];
-        let dof_at = |p: usize| fill_fwd[perm_fwd[p]];
-        let first = dofs.iter().map(|&d| position(d)).min().unwrap_or(n);
-        let begin = sn.supernode_begin();
-        let s0 = begin.partition_point(|&b| b <= first) - 1;
-        let start = begin[s0];
+        let (s0, start) = self.trailing_supernodes(dofs)?;
         let m = n - start;
         if m > MAX_EXTRA_FACTOR * dofs.len() + MAX_EXTRA {
             return Err(SolveError::Symbolic(format!(
@@ -74,17 +43,11 @@ impl DirectSolver {
                 dofs.len()
             )));
         }
-        let factor = SupernodalIntranodeLbltRef::new(
-            sn,
-            l_values,
-            subdiag,
-            PermRef::new_checked(perm_fwd, perm_inv, n),
-        );
-        // L₂₂ (unit lower) and B₂₂ of the positions start..n
+        // L₂₂ (unit lower) of the positions start..n, and L₂₂ B₂₂ (B is diagonal with 2×2
+        // blocks: a scaling of L's columns)
         let mut l = Mat::<f64>::zeros(m, m);
-        let mut b = Mat::<f64>::zeros(m, m);
-        for s in s0..sn.n_supernodes() {
-            let node = factor.supernode(s);
+        for s in s0..parts.n_supernodes {
+            let node = parts.factor.supernode(s);
             let (s_start, vals, pattern) = (node.start(), node.val(), node.pattern());
             let size = vals.ncols();
             for c in 0..size {
@@ -94,41 +57,40 @@ impl DirectSolver {
                     l[(s_start + r - start, col)] = vals[(r, c)];
                 }
                 for (k, &i) in pattern.iter().enumerate() {
-                    l[(perm_inv[i] - start, col)] = vals[(size + k, c)];
-                }
-                b[(col, col)] = vals[(c, c)];
-                let sub = subdiag[s_start + c];
-                if sub != 0.0 {
-                    b[(col + 1, col)] = sub;
-                    b[(col, col + 1)] = sub;
+                    l[(parts.pivot_inv[i] - start, col)] = vals[(size + k, c)];
                 }
             }
         }
-        // L B: B is diagonal with 2×2 blocks, so this is a scaling of the columns of L
         let mut lb = Mat::<f64>::zeros(m, m);
-        let mut c = 0;
-        while c < m {
-            if c + 1 < m && b[(c + 1, c)] != 0.0 {
-                let (b11, b21, b22) = (b[(c, c)], b[(c + 1, c)], b[(c + 1, c + 1)]);
-                for r in c..m {
-                    let (l1, l2) = (l[(r, c)], l[(r, c + 1)]);
-                    lb[(r, c)] = l1 * b11 + l2 * b21;
-                    lb[(r, c + 1)] = l1 * b21 + l2 * b22;
+        for s in s0..parts.n_supernodes {
+            let node = parts.factor.supernode(s);
+            let (s_start, vals) = (node.start(), node.val());
+            let size = vals.ncols();
+            let mut c = 0;
+            while c < size {
+                let col = s_start + c - start;
+                let sub = parts.subdiag[s_start + c];
+                if sub != 0.0 {
+                    let (b11, b22) = (vals[(c, c)], vals[(c + 1, c + 1)]);
+                    for r in col..m {
+                        let (l1, l2) = (l[(r, col)], l[(r, col + 1)]);
+                        lb[(r, col)] = l1 * b11 + l2 * sub;
+                        lb[(r, col + 1)] = l1 * sub + l2 * b22;
+                    }
+                    c += 2;
+                } else {
+                    let d = vals[(c, c)];
+                    for r in col..m {
+                        lb[(r, col)] = l[(r, col)] * d;
+                    }
+                    c += 1;
                 }
-                c += 2;
-            } else {
-                let d = b[(c, c)];
-                for r in c..m {
-                    lb[(r, c)] = l[(r, c)] * d;
-                }
-                c += 1;
             }
         }
-        drop(b);
         let mut s_w = Mat::<f64>::zeros(m, m);
         matmul(&mut s_w, Accum::Replace, &lb, l.transpose(), 1.0, Par::Seq);
         // undo the equilibration: the factor is of D A D
-        let w: Vec<usize> = (start..n).map(dof_at).collect();
+        let w = &self.at[start..];
         for j in 0..m {
             for i in 0..m {
                 s_w[(i, j)] /= self.scale[w[i]] * self.scale[w[j]];

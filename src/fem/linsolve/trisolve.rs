@@ -12,17 +12,19 @@ use faer::sparse::linalg::cholesky::{supernodal::SupernodalIntranodeLbltRef, Sym
 
 use super::{Backend, DirectSolver, SolveError};
 
-/// The parts of a factor a solve reads.
-struct Parts<'a> {
-    factor: SupernodalIntranodeLbltRef<'a, usize, f64>,
-    n_supernodes: usize,
-    subdiag: &'a [f64],
+/// The parts of a supernodal LBLᵀ factor that a solve (or [`DirectSolver::schur_complement`])
+/// reads.
+pub(super) struct Parts<'a> {
+    pub factor: SupernodalIntranodeLbltRef<'a, usize, f64>,
+    pub n_supernodes: usize,
+    /// The 2×2 pivots' off-diagonal entries by position (0: a 1×1 pivot).
+    pub subdiag: &'a [f64],
     /// Intranode pivot: pattern index → position.
-    pivot_inv: &'a [usize],
+    pub pivot_inv: &'a [usize],
 }
 
 impl DirectSolver {
-    fn parts(&self) -> Result<Parts<'_>, SolveError> {
+    pub(super) fn parts(&self) -> Result<Parts<'_>, SolveError> {
         if !self.factored {
             return Err(SolveError::NotFactored);
         }
@@ -72,15 +74,17 @@ impl DirectSolver {
     /// there on.
     pub fn trailing_supernodes(&self, dofs: &[usize]) -> Result<(usize, usize), SolveError> {
         let parts = self.parts()?;
-        let at = self.dof_at_positions();
         let mut position = vec![0usize; self.n];
-        at.iter().enumerate().for_each(|(p, &d)| position[d] = p);
+        self.at
+            .iter()
+            .enumerate()
+            .for_each(|(p, &d)| position[d] = p);
         let first = dofs.iter().map(|&d| position[d]).min().unwrap_or(self.n);
-        let mut s0 = parts.n_supernodes;
-        while s0 > 0 && parts.factor.supernode(s0 - 1).start() > first {
-            s0 -= 1;
-        }
-        let s0 = s0.saturating_sub(1);
+        // the last supernode that starts at or before `first`
+        let s0 = (0..parts.n_supernodes)
+            .rev()
+            .find(|&s| parts.factor.supernode(s).start() <= first)
+            .unwrap_or(0);
         Ok((s0, parts.factor.supernode(s0).start()))
     }
 
