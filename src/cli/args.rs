@@ -120,7 +120,7 @@ pub enum FactorizationArg {
 }
 
 /// Validation studies.
-#[derive(Debug, Clone, Copy, ValueEnum)]
+#[derive(Debug, Clone, Copy, PartialEq, Eq, ValueEnum)]
 pub enum Study {
     /// Manufactured solution, periodic channel and annulus, with and without DEVSS-G.
     StokesMms,
@@ -149,6 +149,10 @@ pub enum Study {
     /// lab frame on the fixed mesh and on a mesh that follows it (≈ 6 min); the verdict asks
     /// the following mesh's r*(10) to be within 1e-3 of the rotating frame's.
     CouetteFrame,
+    /// Near-contact forces in Stokes flow (issue 25): two cylinders squeezing their film and a
+    /// cylinder approaching a wall, gaps 0.5a … 0.01a, against the lubrication asymptote, on the
+    /// element sizes `--h` (units of a; default 0.2,0.1,0.05).
+    NearContact,
 }
 
 /// Benchmarks.

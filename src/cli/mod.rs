@@ -40,7 +40,7 @@ pub fn run(cli: Cli) -> anyhow::Result<ExitCode> {
                 study,
                 levels,
                 wi,
-                &h.unwrap_or_else(|| validate::default_cylinder_meshes(wi)),
+                &h.unwrap_or_else(|| validate::default_meshes(study, wi)),
                 &out,
                 dt,
                 t_max,

@@ -267,6 +267,7 @@ pub(super) fn validate_particles(
             }
             println!("tolerance (following mesh): {COUETTE_FOLLOW_TOL}");
         }
+        Study::NearContact => ok &= near_contact(hs, cut)?,
         Study::StokesMms | Study::Couette => unreachable!("handled by validate"),
     }
     println!("verdict: {}", if ok { "PASS" } else { "FAIL" });
@@ -314,8 +315,10 @@ fn print_frame_runs(
 /// for Wi > 0 the coarsest mesh that meets the tolerance in about a minute (measured:
 /// Wi = 0.3 h = 0.1 +6.7e-4 of the 0.1 %; Wi = 0.6 h = 0.1 +2.3e-3 misses the 0.2 %, h = 0.07
 /// see docs/validation.md).
-pub(super) fn default_cylinder_meshes(wi: f64) -> Vec<f64> {
-    if wi == 0.0 {
+pub(super) fn default_meshes(study: Study, wi: f64) -> Vec<f64> {
+    if study == Study::NearContact {
+        vec![0.2, 0.1, 0.05]
+    } else if wi == 0.0 {
         vec![0.1, 0.05, 0.03]
     } else if wi <= 0.45 {
         vec![0.1]
@@ -377,4 +380,68 @@ fn validate_cylinder_viscoelastic(
     } else {
         ExitCode::FAILURE
     })
+}
+
+/// `xpflow validate near-contact`: the force table per configuration and element size, the
+/// anisotropic meshes of the strings, and the verdict of `validate::near_contact::check`.
+fn near_contact(hs: &[f64], cut: crate::xfem::CutOptions) -> anyhow::Result<bool> {
+    use crate::validate::near_contact::{check, contact_force, FilmMesh, Pair};
+    const GAPS: [f64; 6] = [0.5, 0.2, 0.1, 0.05, 0.02, 0.01];
+    let header = "| h across/a | h along/a | gap/a | gap/h | offset | F | F_lub | F/F_lub |\n|---|---|---|---|---|---|---|---|";
+    let row = |f: &crate::validate::near_contact::ContactForce| {
+        println!(
+            "| {} | {} | {} | {:.2} | {} | {:.4e} | {:.4e} | {:.4} |",
+            f.mesh.across,
+            f.mesh.along,
+            f.gap,
+            f.elements(),
+            f.offset,
+            f.force,
+            f.asymptote,
+            f.ratio()
+        )
+    };
+    let mut failures = Vec::new();
+    for pair in [Pair::Cylinders, Pair::Wall] {
+        println!(
+            "\n{} (a = 1, η = 1, V = 1; F_lub = asymptote)\n{header}",
+            pair.name()
+        );
+        let offsets: &[f64] = match pair {
+            Pair::Cylinders => &[0.0, 0.5],
+            Pair::Wall => &[0.0],
+        };
+        let mut rows = Vec::new();
+        for &h in hs {
+            for gap in GAPS {
+                for &offset in offsets {
+                    let f = contact_force(pair, gap, FilmMesh::uniform(h), offset, cut)?;
+                    row(&f);
+                    rows.push(f);
+                }
+            }
+        }
+        failures.extend(check(pair, &rows));
+    }
+    println!("\nThe strings' meshes: finer along the channel than across it (cylinder-cylinder)\n{header}");
+    for (across, along) in [
+        (0.125, 0.2),
+        (0.0833, 0.2),
+        (0.0833, 0.0833),
+        (0.0625, 0.0625),
+    ] {
+        for gap in [0.12, 0.08, 0.05] {
+            row(&contact_force(
+                Pair::Cylinders,
+                gap,
+                FilmMesh { across, along },
+                0.5,
+                cut,
+            )?);
+        }
+    }
+    for f in &failures {
+        println!("FAIL {f}");
+    }
+    Ok(failures.is_empty())
 }

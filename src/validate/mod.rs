@@ -2,6 +2,7 @@
 //! returns its measured numbers and a verdict against named thresholds.
 
 pub mod moving;
+pub mod near_contact;
 pub mod particles;
 pub mod stokes;
 pub mod viscoelastic;
