@@ -88,6 +88,18 @@ particles.layout.pair.ly = [0.06, 0.08]
         )
         .unwrap();
     assert_eq!(kinds, 2, "0.3 time units decide nothing");
+    // the narrowest gap in elements (h = 0.1): particles of radius 0.1 at y = ±0.06 are 0.34
+    // from the walls, 3.4 rows (their own gap, 0.5 along x and 0.12 across, has 3.8 layers);
+    // 0.3 time units move them by far less than a row
+    let gap: f64 = c
+        .query_row(
+            "SELECT json_extract(final_json, '$.gap_elements_min') FROM outcomes o JOIN cases c \
+             ON c.id = o.case_id WHERE c.label LIKE '%0.06%'",
+            [],
+            |r| r.get(0),
+        )
+        .unwrap();
+    assert!((gap - 3.4).abs() < 0.05, "{gap}");
     let snaps: Vec<String> = c
         .prepare("SELECT file FROM snapshots")
         .unwrap()

@@ -152,6 +152,16 @@ impl Axis {
             .fold(f64::INFINITY, f64::min)
     }
 
+    /// The continuous element index of `x`: `e + (x − x_e)/(x_{e+1} − x_e)` in element `e`
+    /// (0 at the first vertex, `len()` at the last; linear extrapolation beyond the ends). The
+    /// difference of two values is the number of elements between the points, fractions
+    /// included.
+    pub fn index_coordinate(&self, x: f64) -> f64 {
+        let e = self.locate(x);
+        let (a, b) = (self.vertices[e], self.vertices[e + 1]);
+        e as f64 + (x - a) / (b - a)
+    }
+
     /// Index of the element containing `x` (clamped to the ends).
     pub fn locate(&self, x: f64) -> usize {
         let n = self.len();

@@ -4,6 +4,7 @@ pub mod axis;
 pub mod equidistribute;
 pub mod follow;
 mod ordering;
+pub mod resolution;
 pub mod structured;
 
 pub use axis::Axis;

@@ -100,7 +100,12 @@ pub fn sample(kind: OutcomeKind, spec: &CaseSpec, step: u64, t: f64) -> Sample {
             p
         })
         .collect();
-    Sample { step, t, particles }
+    Sample {
+        step,
+        t,
+        particles,
+        gap_elements: None,
+    }
 }
 
 fn lerp(target: [f64; 2], start: [f64; 2], weight_of_start: f64) -> [f64; 2] {

@@ -58,11 +58,18 @@ impl Frame {
 }
 
 /// Observer sample from the solver state in the lab frame (ω and θ clockwise positive, as the
-/// store expects).
-pub fn sample(step: u64, t: f64, s: &RigidState, frame: Frame) -> Sample {
+/// store expects), with the elements across the narrowest gap (frame-independent).
+pub fn sample(
+    step: u64,
+    t: f64,
+    s: &RigidState,
+    frame: Frame,
+    gap_elements: Option<f64>,
+) -> Sample {
     Sample {
         step,
         t,
+        gap_elements,
         particles: (0..s.x.len())
             .map(|i| {
                 let (x, u) = frame.to_lab(t, s.x[i], s.u[i]);

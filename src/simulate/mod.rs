@@ -20,6 +20,7 @@ pub use settings::Settings;
 
 use crate::config::{CaseSpec, Geometry};
 use crate::geometry::{ConfinedShear, CouetteError, CouetteGeometry, RotatingCouette, SetUp};
+use crate::mesh::resolution::narrowest_gap;
 use crate::observe::{FieldSnapshot, Sample};
 use crate::solver::moving::{
     ComputationalMesh, MovingCheckpoint, MovingError, MovingParticles, StepOutcome,
@@ -164,7 +165,15 @@ impl Simulation {
 
     /// The particles now, in the lab frame.
     pub fn sample(&self) -> Sample {
-        frame::sample(self.steps(), self.time(), self.stepper.state(), self.frame)
+        let state = self.stepper.state();
+        let gap = narrowest_gap(self.stepper.flow().mesh(), &state.x, self.radius);
+        frame::sample(
+            self.steps(),
+            self.time(),
+            state,
+            self.frame,
+            gap.map(|g| g.elements),
+        )
     }
 
     /// The fields now on the Q2 nodes, in the lab frame.

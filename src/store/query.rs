@@ -268,7 +268,8 @@ impl Store {
             }
             QueryKind::Cases => {
                 let sql = format!(
-                    "SELECT c.case_hash, c.label, c.status, c.kind, c.string_length, c.t_decided, c.mean_gap, c.wall_s,
+                    "SELECT c.case_hash, c.label, c.status, c.kind, c.string_length, c.t_decided, c.mean_gap,
+                            json_extract(c.final_json, '$.gap_elements_min'), c.wall_s,
                             c.error, c.owner, c.owner_pid FROM case_outcomes c{cond} ORDER BY c.id"
                 );
                 let host = super::hostname();
@@ -297,6 +298,7 @@ impl Store {
                     "string_length",
                     "t_decided",
                     "mean_gap",
+                    "gap_elements",
                     "wall_s",
                     "error",
                 ];

@@ -396,7 +396,10 @@ fn run_one(case: &PlannedCase, ctx: &CaseContext<'_>) -> Result<CaseRun, StoreEr
     drop(rec);
     let summary = match (&outcome, &error) {
         (Some(o), Some(e)) if o.kind == OutcomeKind::Diverged => format!("diverged ({e})"),
-        (Some(o), _) => o.kind.as_str().to_string(),
+        (Some(o), _) => match o.final_state.get("warning").and_then(|w| w.as_str()) {
+            Some(w) => format!("{} (warning: {w})", o.kind.as_str()),
+            None => o.kind.as_str().to_string(),
+        },
         (None, e) => format!("failed ({})", e.as_deref().unwrap_or("")),
     };
     let failed = outcome.is_none();

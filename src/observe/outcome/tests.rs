@@ -140,7 +140,12 @@ fn a_chain_held_to_the_end_is_a_drifting_string() {
                     theta: 0.0,
                 })
                 .collect();
-            let decided = c.push(&Sample { step, t, particles });
+            let decided = c.push(&Sample {
+                step,
+                t,
+                particles,
+                gap_elements: None,
+            });
             assert!(decided.is_none(), "decided early at t = {t}");
         }
         c.finish()
@@ -186,4 +191,37 @@ fn a_particle_outside_the_domain_diverges_with_the_reason() {
         .as_str()
         .unwrap()
         .contains("outside the gap"));
+}
+
+/// A string whose narrowest gap had `elements` across it for the steps before the decision.
+fn string_resolved_by(elements: f64) -> Outcome {
+    let spec = shear(3);
+    let mut c = Classifier::new(&spec);
+    for step in 1..=6000 {
+        let mut s = synthetic::sample(OutcomeKind::String, &spec, step, step as f64 * DT);
+        // the gap closes: 3 elements at first, `elements` from step 100 on
+        s.gap_elements = Some(if step < 100 { 3.0 } else { elements });
+        if c.push(&s).is_some() {
+            break;
+        }
+    }
+    c.finish()
+}
+
+#[test]
+fn an_outcome_on_an_unresolved_gap_carries_a_warning() {
+    let o = string_resolved_by(0.9);
+    assert_eq!(o.kind, OutcomeKind::String);
+    assert_eq!(o.final_state["gap_elements_min"], json!(0.9));
+    assert_eq!(o.final_state["gap_elements"], json!(0.9));
+    let w = o.final_state["warning"].as_str().expect("a warning");
+    assert!(w.contains("0.90 elements") && w.contains("mesh"), "{w}");
+    let o = string_resolved_by(MIN_GAP_ELEMENTS);
+    assert_eq!(o.final_state["gap_elements_min"], json!(MIN_GAP_ELEMENTS));
+    assert!(o.final_state.get("warning").is_none(), "{}", o.final_state);
+    // without a mesh (the fake runner) nothing is claimed
+    let o = classify(OutcomeKind::String, &shear(3));
+    assert!(
+        o.final_state.get("gap_elements_min").is_none() && o.final_state.get("warning").is_none()
+    );
 }
