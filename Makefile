@@ -51,6 +51,7 @@ validate: build
 	$(BIN) validate explicit-coupling --h 0.25
 	$(BIN) validate lab-frame
 	$(BIN) validate couette-frame
+	$(BIN) validate near-contact
 	$(CARGO) test $(PROFILE) -- --ignored
 
 # Benchmarks; record their output in docs/performance.md.

@@ -53,7 +53,7 @@ pub struct SweepArgs {
     /// anything runs [default: the machine's physical memory].
     #[arg(long, value_parser = gigabytes)]
     pub max_memory: Option<f64>,
-    /// Most cases a sweep file may expand to [default: 100000].
+    /// Most cases a sweep file may expand to.
     #[arg(long, default_value_t = crate::sweep::expand::DEFAULT_MAX_CASES, value_parser = at_least_one)]
     pub max_cases: usize,
 }
