@@ -137,6 +137,22 @@ fn outcomes_divergence_and_rerun() {
         .unwrap();
     let csv = table.render(Format::Csv);
     assert!(csv.starts_with("Wi,N=2,N=3\n1.0,-,-\n2.0,+,+\n"), "{csv}");
+    // a string that formed on a gap of fewer than two elements is marked '+?' (the fake runner
+    // has no mesh: the warning is written as the classifier would)
+    store
+        .connection()
+        .execute(
+            "UPDATE outcomes SET final_json = json_set(final_json, '$.warning', 'the narrowest gap \
+             had 0.90 elements across it') WHERE case_id IN (SELECT id FROM cases WHERE wi = 2 \
+             AND n_particles = 2)",
+            [],
+        )
+        .unwrap();
+    let table = store
+        .query(&QueryKind::StringFormation, Some("outcomes"), &[])
+        .unwrap();
+    let csv = table.render(Format::Csv);
+    assert!(csv.starts_with("Wi,N=2,N=3\n1.0,-,-\n2.0,+?,+\n"), "{csv}");
     let filtered = store
         .query(&QueryKind::Cases, None, &["wi=2".parse().unwrap()])
         .unwrap();

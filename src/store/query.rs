@@ -124,7 +124,9 @@ impl std::str::FromStr for Filter {
 /// What to tabulate.
 #[derive(Debug, Clone, PartialEq)]
 pub enum QueryKind {
-    /// '+' if a string formed, '−' if not, per Wi (rows) × N (columns) — thesis Table 5.2.
+    /// '+' if a string formed, '+?' if it formed only with fewer than two elements across its
+    /// narrowest gap (the outcome's warning), '−' if not, per Wi (rows) × N (columns) — thesis
+    /// Table 5.2.
     StringFormation,
     /// Outcome kinds per δ (rows) × Wi (columns) — thesis Fig. 5.26.
     Regime,
@@ -193,7 +195,9 @@ impl Store {
             QueryKind::StringFormation => {
                 let rows = self.rows(
                     &format!(
-                        "SELECT c.wi, c.n_particles, c.status, c.kind FROM case_outcomes c{cond}"
+                        "SELECT c.wi, c.n_particles, c.status, c.kind,
+                                json_extract(c.final_json, '$.warning') IS NOT NULL
+                         FROM case_outcomes c{cond}"
                     ),
                     &args,
                 )?;
@@ -202,14 +206,18 @@ impl Store {
                     let (Some(wi), Some(n)) = (r[0].as_f64(), r[1].as_i64()) else {
                         continue;
                     };
+                    let unresolved = r[4].as_i64() == Some(1);
                     let mark = match (r[2].as_str(), r[3].as_str()) {
+                        (_, Some("string")) if unresolved => "+?",
                         (_, Some("string")) => "+",
                         (Some("done"), Some(_)) => "-",
                         _ => "?",
                     };
                     let e = cells.entry((Key(wi), n)).or_insert_with(|| mark.into());
-                    // '+' wins over '-', which wins over '?' (pending).
-                    if mark == "+" || (mark == "-" && e == "?") {
+                    // '+' wins over '+?' (a string on a gap of fewer than 2 elements), which
+                    // wins over '-', which wins over '?' (pending).
+                    let rank = |m: &str| ["?", "-", "+?", "+"].iter().position(|k| *k == m);
+                    if rank(mark) > rank(e) {
                         *e = mark.into();
                     }
                 }
