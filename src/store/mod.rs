@@ -7,6 +7,7 @@
 //! up front instead of failing to upgrade a read lock.
 
 pub mod cases;
+mod outcomes;
 mod open;
 pub mod query;
 pub mod schema;
@@ -19,6 +20,7 @@ use std::time::Duration;
 use rusqlite::{params, Connection, OptionalExtension, TransactionBehavior};
 
 pub use cases::{CaseRecord, Claim, ClaimResult, RunningCase, SweepCounts};
+pub use outcomes::StoredOutcome;
 pub use table::{Format, Table};
 
 /// How long a connection waits for another writer before giving up: a finished case's transaction takes
