@@ -105,7 +105,11 @@ impl SearchSpec {
     /// Reads and validates `value` (the `[search]` table of `file`); `swept` are the paths of the
     /// file's axes and zips, which the searched axis must not be among. Errors name the file and
     /// the field (`search.tol`, …) and say what to change.
-    pub fn from_value(value: &Value, file: &Path, swept: &[&str]) -> Result<SearchSpec, ConfigError> {
+    pub fn from_value(
+        value: &Value,
+        file: &Path,
+        swept: &[&str],
+    ) -> Result<SearchSpec, ConfigError> {
         let err = |field: &str, message: String| ConfigError::Sweep {
             file: file.to_path_buf(),
             field: format!("search{}{field}", if field.is_empty() { "" } else { "." }),
@@ -130,7 +134,10 @@ impl SearchSpec {
         })?;
         let [lo, hi] = raw.range;
         if raw.axis.is_empty() {
-            return Err(err("axis", "name the field to refine, e.g. \"fluid.wi\"".into()));
+            return Err(err(
+                "axis",
+                "name the field to refine, e.g. \"fluid.wi\"".into(),
+            ));
         }
         if swept.contains(&raw.axis.as_str()) {
             return Err(err(
@@ -161,7 +168,10 @@ impl SearchSpec {
         if raw.coarse < 2 {
             return Err(err(
                 "coarse",
-                format!("{} values cannot bracket anything; use at least 2", raw.coarse),
+                format!(
+                    "{} values cannot bracket anything; use at least 2",
+                    raw.coarse
+                ),
             ));
         }
         if raw.budget < raw.coarse {
@@ -239,14 +249,26 @@ mod tests {
         assert_eq!(field(&GOOD.replace("0.05", "0")), "search.tol");
         assert_eq!(field(&GOOD.replace("0.05", "-1")), "search.tol");
         assert_eq!(field(&GOOD.replace("0.05", "5")), "search.tol");
-        assert_eq!(field(&GOOD.replace("[0.0, 3.0]", "[3.0, 3.0]")), "search.range");
-        assert_eq!(field(&GOOD.replace("[0.0, 3.0]", "[3.0, 1.0]")), "search.range");
+        assert_eq!(
+            field(&GOOD.replace("[0.0, 3.0]", "[3.0, 3.0]")),
+            "search.range"
+        );
+        assert_eq!(
+            field(&GOOD.replace("[0.0, 3.0]", "[3.0, 1.0]")),
+            "search.range"
+        );
         assert_eq!(field(&GOOD.replace("40", "4")), "search.budget");
         assert_eq!(field(&format!("{GOOD}coarse = 1")), "search.coarse");
-        assert_eq!(field(&format!("{GOOD}per_bracket = 0")), "search.per_bracket");
+        assert_eq!(
+            field(&format!("{GOOD}per_bracket = 0")),
+            "search.per_bracket"
+        );
         assert_eq!(field(&GOOD.replace("0.05", "\"x\"")), "search.tol");
         assert_eq!(field(&format!("{GOOD}tolerance = 1")), "search.tolerance");
-        assert_eq!(field(&format!("{GOOD}change = \"length\"")), "search.change");
+        assert_eq!(
+            field(&format!("{GOOD}change = \"length\"")),
+            "search.change"
+        );
         assert_eq!(
             field(&format!("{GOOD}change = {{ string_length_at_least = 1 }}")),
             "search.change.string_length_at_least"

@@ -7,8 +7,8 @@
 //! up front instead of failing to upgrade a read lock.
 
 pub mod cases;
-mod outcomes;
 mod open;
+mod outcomes;
 pub mod query;
 pub mod schema;
 pub mod snapshot;

@@ -92,11 +92,7 @@ pub fn boundaries_table(store: &Store, sweep: Option<&str>) -> Result<Table, Sea
                     .filter_map(|(_, p)| p.outcome.as_ref().map(|o| describe(o, search.change)))
                     .collect();
                 let all = seen.into_iter().collect::<Vec<_>>().join("/");
-                let what = if state.finished {
-                    "no change"
-                } else {
-                    "open"
-                };
+                let what = if state.finished { "no change" } else { "open" };
                 table.rows.push(row(
                     Value::Null,
                     Value::Null,

@@ -152,7 +152,10 @@ mod tests {
         assert_eq!((b[1].lo, b[1].hi), (2.0, 3.0));
         // bisection: one value per bracket, the failed 1.5 is not chosen again
         assert_eq!(next_values(&p, &spec(1), 10), vec![2.5]);
-        assert_eq!(next_values(&p, &spec(3), 10), vec![1.25, 1.75, 2.25, 2.5, 2.75]);
+        assert_eq!(
+            next_values(&p, &spec(3), 10),
+            vec![1.25, 1.75, 2.25, 2.5, 2.75]
+        );
     }
 
     #[test]
@@ -163,7 +166,10 @@ mod tests {
             (2.0, Some("repel")),
             (3.0, Some("string")),
         ]);
-        assert_eq!(next_values(&p, &spec(2), 3), vec![0.25, 2.0 + 1.0 / 3.0, 2.0 + 2.0 / 3.0]);
+        assert_eq!(
+            next_values(&p, &spec(2), 3),
+            vec![0.25, 2.0 + 1.0 / 3.0, 2.0 + 2.0 / 3.0]
+        );
         assert_eq!(next_values(&p, &spec(2), 1), vec![2.5]);
         assert!(next_values(&p, &spec(2), 0).is_empty());
     }

@@ -206,7 +206,9 @@ fn refuse_twins(sweep: &SweepSpec, cases: &[PlannedCase]) -> Result<(), ConfigEr
     let mut seen: HashMap<&str, usize> = HashMap::new();
     for c in cases {
         if let Some(&twin) = seen.get(c.id.as_str()) {
-            let first = swept_axes(sweep).first().map_or(String::new(), |a| a.path.clone());
+            let first = swept_axes(sweep)
+                .first()
+                .map_or(String::new(), |a| a.path.clone());
             return Err(ConfigError::Case {
                 file: sweep.file.clone(),
                 index: c.index,
