@@ -263,7 +263,7 @@ fn search_killed_mid_way_resumes() {
         resumed.rounds
     );
     assert!(
-        ran.len() > 0 && done_before.len() < resumed.cases,
+        !ran.is_empty() && done_before.len() < resumed.cases,
         "killed mid-way"
     );
     assert!(resumed.finished && resumed.failed == 0, "{resumed:?}");

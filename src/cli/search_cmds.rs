@@ -2,17 +2,17 @@
 //! thin handlers over `sweep::search`, with the exit codes of the sweep commands (0 ok, 1 some
 //! case failed or a runtime error, 2 invalid input and nothing written).
 
-use std::collections::HashMap;
 use std::io::Write;
 use std::process::ExitCode;
 
 use anyhow::Context;
 
 use super::sweep_cmds::{invalid, sweep_options, QueryArgs, SweepArgs, EXIT_INVALID};
-use crate::config::SweepSpec;
+use crate::config::{ConfigError, SweepSpec};
 use crate::store::query::Filter;
-use crate::store::{Format, Store, StoredOutcome, Table};
+use crate::store::{Format, Store, Table};
 use crate::sweep::engine::SweepError;
+use crate::sweep::search::replay::Outcomes;
 use crate::sweep::search::{boundaries_table, replay, run_search as search, SearchError};
 use crate::sweep::CaseRunner;
 
@@ -27,9 +27,7 @@ pub(super) fn run_search(
         return invalid(&"the sweep has no [search] section");
     };
     // the coarse round, validated before anything is written
-    let nothing_stored = &mut |_: &[&str]| {
-        Ok::<_, crate::config::ConfigError>(HashMap::<String, StoredOutcome>::new())
-    };
+    let nothing_stored = &mut |_: &[&str]| Ok::<_, ConfigError>(Outcomes::new());
     let coarse = match replay(spec, args.max_cases, nothing_stored) {
         Ok(state) => state,
         Err(e) => return invalid(&e),

@@ -1,6 +1,6 @@
 //! `xpflow query boundaries`: per sweep with a `[search]` and per combination of its other axes,
 //! each boundary as a bracket — the two neighbouring values of the searched axis and the outcomes
-//! on each side — replayed from the store ([`super::replay`]), so it is what the search knows,
+//! on each side — replayed from the store ([`super::replay()`]), so it is what the search knows,
 //! finished or not. A combination without a change says so in one row.
 
 use serde_json::{json, Value};

@@ -6,7 +6,7 @@
 //!
 //! One path: every round is an ordinary [`run_sweep`] of the cases planned so far (the same ids,
 //! store, runner, claims and resume as a grid sweep; the finished ones are skipped). The search
-//! keeps no state of its own: [`replay`] rebuilds it from the outcomes in the store, so a killed
+//! keeps no state of its own: [`replay()`] rebuilds it from the outcomes in the store, so a killed
 //! search continues with the round it was in. [`boundaries`] tabulates the brackets found.
 
 pub mod boundaries;

@@ -86,6 +86,9 @@ impl SearchState {
     }
 }
 
+/// The stored status and outcome of given case ids (absent: not in the database).
+pub type Outcomes = HashMap<String, StoredOutcome>;
+
 /// Rebuilds the state of the search of `sweep` (which must have a `[search]` section) from the
 /// stored outcomes that `lookup` returns for given case ids. With a `lookup` that knows nothing,
 /// this is the coarse round: what `--dry-run` lists, and the validation before anything runs.
@@ -97,7 +100,7 @@ impl SearchState {
 pub fn replay<E: From<ConfigError>>(
     sweep: &SweepSpec,
     max_cases: usize,
-    lookup: &mut dyn FnMut(&[&str]) -> Result<HashMap<String, StoredOutcome>, E>,
+    lookup: &mut dyn FnMut(&[&str]) -> Result<Outcomes, E>,
 ) -> Result<SearchState, E> {
     let Some(spec) = &sweep.search else {
         return Err(ConfigError::Sweep {
