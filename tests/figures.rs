@@ -1,6 +1,5 @@
 //! Figures end to end: builds a small results database with the fake runner (confined-shear cases ending
-//! in string / repel / pass / jammed / diverged, a δ × Wi regime sweep, an adaptive
-//! search over Wi at one δ (its bracket on the regime map), Couette migration cases over r0*,
+//! in string / repel / pass / jammed / diverged, a δ × Wi regime sweep, Couette migration cases over r0*,
 //! Wi, α and ε, one case with an HDF5 snapshot file, a Couette and a shear set-up on two meshes, and one
 //! particle in confined shear started at three heights on two meshes), runs
 //! `plotting/make_figures.py` on it with the Python of the repository's `.venv/` (created by
@@ -133,7 +132,7 @@ fn single_particle_behaviour(s: &CaseSpec) -> FakeBehaviour {
     }
 }
 
-/// The database of the test (51 fake cases and a search of 5; a second or two).
+/// The database of the test (51 fake cases; a second or two).
 fn build_database(dir: &Path) -> PathBuf {
     let db = dir.join("figs.db");
     let shear = sweep(
@@ -188,35 +187,6 @@ geometry.confined_shear.delta = [2, 5, 10]
 "#,
     );
     run(&db, &regime, &FakeRunner::new(regime_behaviour));
-    // an adaptive search over Wi at one δ (small: every shear case is a panel of the alignment
-    // figures, and the plotting has a time budget), its boundary bracketed to 0.5
-    let search = sweep(
-        dir,
-        "search.toml",
-        r#"
-name = "search"
-[base]
-geometry.confined_shear = { delta = 5, l = 4.0 }
-fluid = { model = "giesekus", wi = 1.0, alpha = 0.01, beta = 0.1 }
-particles = { radius = 0.1, layout.string = { n = 2, lx = 0.5, ly = 0.1 } }
-numerics = { mesh = [40, 10], dt = 0.02, t_end = 24.0 }
-output = { sample_every = 10 }
-[axes]
-geometry.confined_shear.delta = [3]
-[search]
-axis = "fluid.wi"
-range = [0.25, 3.0]
-tol = 0.5
-budget = 5
-coarse = 3
-per_bracket = 1
-"#,
-    );
-    let mut o = SweepOptions::new(db.to_path_buf());
-    o.jobs = 2;
-    o.progress = xpflow::sweep::progress::ProgressMode::Quiet;
-    let runner = FakeRunner::new(regime_behaviour);
-    xpflow::sweep::search::run_search(&search, &runner, &o, 1000, &mut |_| {}).unwrap();
     let couette = sweep(
         dir,
         "couette.toml",
@@ -313,8 +283,7 @@ numerics.mesh = [[40, 20], [60, 30]]
     let count = |sql: &str| -> i64 { store.connection().query_row(sql, [], |r| r.get(0)).unwrap() };
     assert_eq!(
         count("SELECT COUNT(*) FROM cases"),
-        12 + 2 + 6 + 5 + 24 + 1 + 2 + 6,
-        "… 5: the search, 3 coarse values and 2 rounds of 1"
+        12 + 2 + 6 + 24 + 1 + 2 + 6
     );
     assert_eq!(
         count("SELECT COUNT(*) FROM sweep_cases sc JOIN sweeps s ON s.id = sc.sweep_id WHERE s.name IN ('couette_mesh', 'shear_mesh')"),
