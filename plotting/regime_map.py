@@ -5,6 +5,11 @@ by outcome: pass ▷, repel ×, string ●, jammed ■, wall contact ▲, and th
 not finished) in their own markers. Cases at the same (δ, Wi) — e.g. different meshes, which follow δ in the
 regime sweep — are spread slightly sideways. δ is on a log axis when it spans a factor of 8 or more.
 
+Boundaries: at each δ, two neighbouring Wi (among the cases with an outcome) whose outcome kinds differ bracket
+a boundary, drawn as a black bar from the lower to the upper Wi with a tick at its middle — on a grid the bar
+is one grid spacing long, after an adaptive search (`[search]` over `fluid.wi`, docs/sweeps.md) at most its
+tolerance. `xpflow query boundaries` lists the search's brackets with their values.
+
 Inputs: cases (geometry = 'confined_shear', delta, wi) ⋈ outcomes (kind).
 Usage: python plotting/regime_map.py DB [OUT_DIR]
 """
@@ -47,6 +52,10 @@ def main(f: fl.Figures) -> None:
             for c in cs:
                 at.setdefault((fl.rounded(c.delta), fl.rounded(c.wi)), []).append(c)
             kinds_here = set()
+            brackets = boundary_brackets(cs)
+            for d, lo, hi in brackets:
+                ax.errorbar(d, (lo + hi) / 2, yerr=(hi - lo) / 2, fmt="_", color="black", ms=14, mew=1.5,
+                            elinewidth=2.5, capsize=5, zorder=3)
             for (d, wi), here in at.items():
                 here.sort(key=lambda c: (str(c.kind), c.id))
                 for k, c in enumerate(here):
@@ -70,10 +79,33 @@ def main(f: fl.Figures) -> None:
             handles = [Line2D([], [], marker=fl.KIND_STYLE[k][0], color=fl.KIND_STYLE[k][1], ls="none", ms=8,
                               mew=1.8, label=fl.KIND_STYLE[k][2])
                        for k in fl.KIND_STYLE if k in kinds_here]
+            if brackets:
+                handles.append(Line2D([], [], marker="_", color="black", ls="none", ms=12, mew=2,
+                                      label=f"boundary bracket ({len(brackets)})"))
             ax.legend(handles=handles, fontsize=7, loc="upper left", bbox_to_anchor=(1.01, 1.0), borderaxespad=0)
             ax.set_title(f"{fl.describe(panel_params) or 'all cases'} ({len(cs)} cases)", fontsize=9)
         fig.suptitle(f"{TITLE}\n{fl.describe(common)}", fontsize=11)
         f.save(fig, page)
+
+
+def boundary_brackets(cases) -> list[tuple[float, float, float]]:
+    """(δ, Wi below, Wi above) for each pair of neighbouring Wi at the same δ whose outcome kinds differ
+    (cases without an outcome bracket nothing)."""
+    by_delta: dict = {}
+    for c in cases:
+        if c.kind is not None:
+            by_delta.setdefault(fl.rounded(c.delta), []).append(c)
+    out = []
+    for here in by_delta.values():
+        # one outcome per Wi: several cases at one (δ, Wi) (meshes) count when they agree
+        kinds: dict = {}
+        for c in here:
+            kinds.setdefault(c.wi, set()).add(c.kind)
+        wis = sorted(kinds)
+        for lo, hi in zip(wis, wis[1:]):
+            if kinds[lo] != kinds[hi]:
+                out.append((here[0].delta, lo, hi))
+    return out
 
 
 if __name__ == "__main__":

@@ -4,6 +4,7 @@
 pub mod args;
 mod bench;
 mod run;
+mod search_cmds;
 pub mod sweep_cmds;
 mod validate;
 

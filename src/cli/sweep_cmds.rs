@@ -20,7 +20,7 @@ use crate::sweep::progress::ProgressMode;
 use crate::sweep::{default_runner, CaseRunner, SweepOptions};
 
 /// Exit code of invalid input (sweep file, query) — nothing was written.
-const EXIT_INVALID: u8 = 2;
+pub(super) const EXIT_INVALID: u8 = 2;
 
 /// `xpflow sweep FILE`: run (or resume) a sweep.
 #[derive(Debug, Clone, clap::Args)]
@@ -99,6 +99,9 @@ pub enum QueryWhat {
     Final,
     /// Raw samples of one case (`--case ID`).
     Trajectory,
+    /// The brackets a search found: per combination of the other axes, each boundary with the
+    /// values and outcomes on both sides (sweeps with a `[search]` section).
+    Boundaries,
 }
 
 /// `xpflow query WHAT`: tables from a results database.
@@ -151,6 +154,9 @@ pub fn run_sweep_with(
         Ok(s) => s,
         Err(e) => return invalid(&e),
     };
+    if spec.search.is_some() {
+        return super::search_cmds::run_search(args, &spec, runner, out);
+    }
     let cases = match expand_at_most(&spec, args.max_cases) {
         Ok(c) => c,
         Err(e) => return invalid(&e),
@@ -181,20 +187,7 @@ pub fn run_sweep_with(
         }
         return Ok(ExitCode::SUCCESS);
     }
-    let db = args
-        .db
-        .clone()
-        .unwrap_or_else(|| Path::new("results").join(format!("{}.db", spec.name)));
-    let mut opts = SweepOptions::new(db);
-    if let Some(j) = args.jobs {
-        opts.jobs = j;
-    }
-    opts.retry_failed = args.retry_failed;
-    opts.state_every = std::time::Duration::from_secs_f64(args.state_every * 60.0);
-    opts.progress = ProgressMode::detect(args.quiet);
-    if let Some(gb) = args.max_memory {
-        opts.max_case_memory = gb * 1e9;
-    }
+    let opts = sweep_options(args, &spec);
     match crate::sweep::run_sweep(&spec, &cases, runner, &opts) {
         Ok(summary) => {
             if !args.quiet {
@@ -230,7 +223,27 @@ pub fn run_sweep_with(
     }
 }
 
-fn invalid(e: &dyn std::fmt::Display) -> anyhow::Result<ExitCode> {
+/// The engine's options from the command line (database, jobs, retries, saved states, progress,
+/// memory limit).
+pub(super) fn sweep_options(args: &SweepArgs, spec: &SweepSpec) -> SweepOptions {
+    let db = args
+        .db
+        .clone()
+        .unwrap_or_else(|| Path::new("results").join(format!("{}.db", spec.name)));
+    let mut opts = SweepOptions::new(db);
+    if let Some(j) = args.jobs {
+        opts.jobs = j;
+    }
+    opts.retry_failed = args.retry_failed;
+    opts.state_every = std::time::Duration::from_secs_f64(args.state_every * 60.0);
+    opts.progress = ProgressMode::detect(args.quiet);
+    if let Some(gb) = args.max_memory {
+        opts.max_case_memory = gb * 1e9;
+    }
+    opts
+}
+
+pub(super) fn invalid(e: &dyn std::fmt::Display) -> anyhow::Result<ExitCode> {
     eprintln!("error: {e}");
     Ok(ExitCode::from(EXIT_INVALID))
 }
@@ -262,6 +275,7 @@ pub fn run_query_to(args: &QueryArgs, out: &mut dyn Write) -> anyhow::Result<Exi
                 ))
             }
         },
+        QueryWhat::Boundaries => return super::search_cmds::query_boundaries(args, &filters, out),
         QueryWhat::Trajectory => match &args.case {
             Some(c) => QueryKind::Trajectory(c.clone()),
             None => return invalid(&"trajectory needs --case ID (see `xpflow query cases`)"),

@@ -13,6 +13,7 @@
 mod case;
 mod error;
 mod limits;
+mod search;
 mod sweep_file;
 mod text;
 mod validate;
@@ -23,6 +24,7 @@ pub use case::{
 };
 pub use error::{ConfigError, SpecError};
 pub use limits::{MAX_ELEMENTS_PER_STEP, MAX_MESH_ELEMENTS, MAX_RADII_PER_STEP};
+pub use search::{Change, SearchSpec};
 pub use sweep_file::{Axis, PlannedCase, SweepSpec};
 pub use text::parse as parse_text;
 pub use validate::MAX_DT_OVER_LAMBDA;

@@ -10,8 +10,13 @@
 //! [[zip]]           # lists of equal length varied together; each group is crossed with the axes
 //! "geometry.confined_shear.h" = [0.5, 1.0]
 //! "numerics.mesh" = [[220, 28], [440, 55]]
+//! [search]          # optional: refine one more axis where the outcome changes (`search`)
+//! axis = "fluid.wi"
+//! range = [0.0, 3.0]
+//! tol = 0.05
+//! budget = 40
 //! ```
-//! Expansion into cases is in `sweep::expand`.
+//! Expansion into cases is in `sweep::expand`; a search's rounds in `sweep::search`.
 
 use std::path::{Path, PathBuf};
 
@@ -19,9 +24,10 @@ use serde_json::{Map, Value};
 
 use super::case::CaseSpec;
 use super::error::ConfigError;
+use super::search::SearchSpec;
 
 /// Keys allowed at the top level of a sweep file.
-const TOP_LEVEL_KEYS: [&str; 5] = ["name", "description", "base", "axes", "zip"];
+const TOP_LEVEL_KEYS: [&str; 6] = ["name", "description", "base", "axes", "zip", "search"];
 
 /// Upper bound on values produced by one range, so that a mistyped step cannot exhaust memory.
 const MAX_RANGE_VALUES: usize = 100_000;
@@ -45,6 +51,9 @@ pub struct SweepSpec {
     pub axes: Vec<Axis>,
     /// Zip groups: axes of equal length varied together, each group crossed with the other axes.
     pub zips: Vec<Vec<Axis>>,
+    /// The `[search]` section: one more axis refined where the outcome changes, for each
+    /// combination of the axes and zips.
+    pub search: Option<SearchSpec>,
     /// The whole file as JSON, recorded in the store.
     pub raw: Value,
 }
@@ -192,6 +201,13 @@ impl SweepSpec {
                 ));
             }
         }
+        let search = match top.get("search") {
+            None => None,
+            Some(v) => {
+                let swept: Vec<&str> = all.iter().map(|a| a.path.as_str()).collect();
+                Some(SearchSpec::from_value(v, file, &swept)?)
+            }
+        };
         Ok(SweepSpec {
             file: file.to_path_buf(),
             name,
@@ -199,6 +215,7 @@ impl SweepSpec {
             base,
             axes,
             zips,
+            search,
             raw,
         })
     }

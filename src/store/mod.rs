@@ -8,6 +8,7 @@
 
 pub mod cases;
 mod open;
+mod outcomes;
 pub mod query;
 pub mod schema;
 pub mod snapshot;
@@ -19,6 +20,7 @@ use std::time::Duration;
 use rusqlite::{params, Connection, OptionalExtension, TransactionBehavior};
 
 pub use cases::{CaseRecord, Claim, ClaimResult, RunningCase, SweepCounts};
+pub use outcomes::StoredOutcome;
 pub use table::{Format, Table};
 
 /// How long a connection waits for another writer before giving up: a finished case's transaction takes

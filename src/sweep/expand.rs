@@ -64,11 +64,66 @@ pub fn expand(sweep: &SweepSpec) -> Result<Vec<PlannedCase>, ConfigError> {
 /// Expands a sweep into validated cases: the crossed axes (first varies slowest) times each zip group.
 /// Errors name the file, the case index and label, and the field; identical cases are an error, and so is
 /// a sweep of more than `max_cases` cases (counted before anything is expanded). Time and memory are
-/// linear in the number of cases.
+/// linear in the number of cases. A sweep with a `[search]` section is refused: its cases are
+/// planned round by round (`sweep::search`).
 pub fn expand_at_most(
     sweep: &SweepSpec,
     max_cases: usize,
 ) -> Result<Vec<PlannedCase>, ConfigError> {
+    if sweep.search.is_some() {
+        return Err(ConfigError::Sweep {
+            file: sweep.file.clone(),
+            field: "search".into(),
+            message: "a search's cases are planned round by round from its results \
+                      (sweep::search::replay), not expanded at once"
+                .into(),
+        });
+    }
+    let combinations = combinations(sweep, max_cases, 1)?;
+    let labels = Labels::new(&swept_axes(sweep));
+    let mut cases: Vec<PlannedCase> = Vec::with_capacity(combinations.len());
+    let mut seen: HashMap<String, usize> = HashMap::with_capacity(combinations.len());
+    for (index, params) in combinations.into_iter().enumerate() {
+        let case = plan_case(sweep, &labels, index, params)?;
+        if let Some(&twin) = seen.get(&case.id) {
+            let twin = &cases[twin];
+            let first_path = sweep.axes.iter().chain(sweep.zips.iter().flatten()).next();
+            return Err(ConfigError::Case {
+                file: sweep.file.clone(),
+                index,
+                label: case.label.clone(),
+                error: SpecError::new(
+                    first_path.map_or("", |a| a.path.as_str()),
+                    format!(
+                        "identical to case {} ({}); remove the duplicate axis value",
+                        twin.index, twin.label
+                    ),
+                ),
+            });
+        }
+        seen.insert(case.id.clone(), index);
+        cases.push(case);
+    }
+    Ok(cases)
+}
+
+/// The axes and zipped axes of a sweep, in expansion order.
+pub(crate) fn swept_axes(sweep: &SweepSpec) -> Vec<&crate::config::Axis> {
+    sweep
+        .axes
+        .iter()
+        .chain(sweep.zips.iter().flatten())
+        .collect()
+}
+
+/// Every combination of the sweep's axes (first varies slowest) times each zip group, as the
+/// assignments (path, value) of each. Refused when `per` cases for each would be more than
+/// `max_cases` (counted before anything is expanded).
+pub(crate) fn combinations(
+    sweep: &SweepSpec,
+    max_cases: usize,
+    per: usize,
+) -> Result<Vec<Vec<(String, Value)>>, ConfigError> {
     // Each dimension is a list of assignments; a plain axis is a zip group of one.
     let mut dims: Vec<Vec<Vec<(String, Value)>>> = Vec::new();
     for axis in &sweep.axes {
@@ -93,36 +148,34 @@ pub fn expand_at_most(
         );
     }
     let count = dims.iter().fold(1.0_f64, |n, d| n * d.len() as f64);
-    if count > max_cases as f64 {
+    if count * per as f64 > max_cases as f64 {
         let sizes: Vec<String> = dims.iter().map(|d| d.len().to_string()).collect();
+        let each = if per > 1 {
+            format!(" combinations, each searched with up to {per} cases (search.budget)")
+        } else {
+            " cases".into()
+        };
         return Err(ConfigError::Sweep {
             file: sweep.file.clone(),
             field: "axes".into(),
             message: format!(
-                "the axes expand to {count:.0} cases ({}), more than the limit of {max_cases}; \
-                 split the sweep into several files, or raise the limit with --max-cases",
+                "the axes expand to {count:.0}{each} ({}), more than the limit of {max_cases} \
+                 cases; split the sweep into several files, or raise the limit with --max-cases",
                 sizes.join(" × ")
             ),
         });
     }
-    let axes: Vec<&crate::config::Axis> = sweep
-        .axes
-        .iter()
-        .chain(sweep.zips.iter().flatten())
-        .collect();
-    let labels = Labels::new(&axes);
-    let first_path = axes.first().map_or("", |a| a.path.as_str());
-    let mut cases: Vec<PlannedCase> = Vec::with_capacity(count as usize);
-    let mut seen: HashMap<String, usize> = HashMap::with_capacity(count as usize);
+    let total = count as usize;
+    let mut out = Vec::with_capacity(total);
     // odometer over the dimensions, the last varying fastest
     let mut at = vec![0_usize; dims.len()];
-    let total = count as usize;
-    for index in 0..total {
-        let params: Vec<(String, Value)> = dims
-            .iter()
-            .zip(&at)
-            .flat_map(|(d, &k)| d[k].iter().cloned())
-            .collect();
+    for _ in 0..total {
+        out.push(
+            dims.iter()
+                .zip(&at)
+                .flat_map(|(d, &k)| d[k].iter().cloned())
+                .collect(),
+        );
         for k in (0..dims.len()).rev() {
             at[k] += 1;
             if at[k] < dims[k].len() {
@@ -130,39 +183,38 @@ pub fn expand_at_most(
             }
             at[k] = 0;
         }
-        let label = labels.of(&params);
-        let case_err = |error: SpecError| ConfigError::Case {
-            file: sweep.file.clone(),
-            index,
-            label: label.clone(),
-            error,
-        };
-        let mut value = sweep.base.clone();
-        for (path, v) in &params {
-            set_path(&mut value, path, v.clone()).map_err(case_err)?;
-        }
-        let spec = CaseSpec::from_value(value).map_err(case_err)?;
-        let id = case_id(&spec);
-        if let Some(&twin) = seen.get(&id) {
-            let twin = &cases[twin];
-            return Err(case_err(SpecError::new(
-                first_path,
-                format!(
-                    "identical to case {} ({}); remove the duplicate axis value",
-                    twin.index, twin.label
-                ),
-            )));
-        }
-        seen.insert(id.clone(), index);
-        cases.push(PlannedCase {
-            index,
-            label,
-            id,
-            spec,
-            params,
-        });
     }
-    Ok(cases)
+    Ok(out)
+}
+
+/// The validated case `index` of a sweep with the swept fields set to `params`; the error names
+/// the file, the case (index, label) and the field.
+pub(crate) fn plan_case(
+    sweep: &SweepSpec,
+    labels: &Labels,
+    index: usize,
+    params: Vec<(String, Value)>,
+) -> Result<PlannedCase, ConfigError> {
+    let label = labels.of(&params);
+    let case_err = |error: SpecError| ConfigError::Case {
+        file: sweep.file.clone(),
+        index,
+        label: label.clone(),
+        error,
+    };
+    let mut value = sweep.base.clone();
+    for (path, v) in &params {
+        set_path(&mut value, path, v.clone()).map_err(case_err)?;
+    }
+    let spec = CaseSpec::from_value(value).map_err(case_err)?;
+    let id = case_id(&spec);
+    Ok(PlannedCase {
+        index,
+        label,
+        id,
+        spec,
+        params,
+    })
 }
 
 /// Significant digits a label gives a float at least: 4 (0.1667 for 1/6), more only where the
@@ -174,13 +226,13 @@ const LABEL_MAX_DIGITS: usize = 17;
 /// How the case labels name each swept field and write its values: `name=value`, the name the
 /// last segment of the path (the full path where two axes share it), floats in the shortest form
 /// with at least [`LABEL_MIN_DIGITS`] significant digits that tells the axis' values apart.
-struct Labels {
+pub(crate) struct Labels {
     /// Per path: (name in the label, significant digits of its floats).
     fields: HashMap<String, (String, usize)>,
 }
 
 impl Labels {
-    fn new(axes: &[&crate::config::Axis]) -> Labels {
+    pub(crate) fn new(axes: &[&crate::config::Axis]) -> Labels {
         let short = |p: &str| p.rsplit('.').next().unwrap_or(p).to_string();
         let fields = axes
             .iter()
@@ -194,7 +246,7 @@ impl Labels {
         Labels { fields }
     }
 
-    fn of(&self, params: &[(String, Value)]) -> String {
+    pub(crate) fn of(&self, params: &[(String, Value)]) -> String {
         if params.is_empty() {
             return "base".into();
         }

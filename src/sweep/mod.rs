@@ -3,7 +3,8 @@
 //! [`expand()`] turns a [`crate::config::SweepSpec`] into validated [`PlannedCase`]s with stable ids;
 //! [`engine`] runs them through a [`CaseRunner`] on a rayon pool, records them in the
 //! [`crate::store::Store`] (one transaction per finished case) and resumes interrupted sweeps;
-//! [`progress`] shows bars or a plain log.
+//! [`progress`] shows bars or a plain log; [`search`] runs a sweep with a `[search]` section round by
+//! round through the same engine, refining one axis where the outcome changes.
 
 pub mod engine;
 pub mod expand;
@@ -11,6 +12,7 @@ pub mod memory;
 pub mod progress;
 mod recorder;
 pub mod runner;
+pub mod search;
 pub mod solver_runner;
 
 pub use crate::config::PlannedCase;

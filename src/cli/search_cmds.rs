@@ -1,0 +1,177 @@
+//! `xpflow sweep FILE` for a sweep file with a `[search]` section, and `xpflow query boundaries`:
+//! thin handlers over `sweep::search`, with the exit codes of the sweep commands (0 ok, 1 some
+//! case failed or a runtime error, 2 invalid input and nothing written).
+
+use std::io::Write;
+use std::process::ExitCode;
+
+use anyhow::Context;
+
+use super::sweep_cmds::{invalid, sweep_options, QueryArgs, SweepArgs, EXIT_INVALID};
+use crate::config::{ConfigError, SweepSpec};
+use crate::store::query::Filter;
+use crate::store::{Format, Store, Table};
+use crate::sweep::engine::SweepError;
+use crate::sweep::search::replay::Outcomes;
+use crate::sweep::search::{boundaries_table, replay, run_search as search, SearchError};
+use crate::sweep::CaseRunner;
+
+/// Runs (or resumes) the search of `spec`, or lists its coarse round with `--dry-run`.
+pub(super) fn run_search(
+    args: &SweepArgs,
+    spec: &SweepSpec,
+    runner: &dyn CaseRunner,
+    out: &mut dyn Write,
+) -> anyhow::Result<ExitCode> {
+    let Some(s) = &spec.search else {
+        return invalid(&"the sweep has no [search] section");
+    };
+    // the coarse round, validated before anything is written
+    let nothing_stored = &mut |_: &[&str]| Ok::<_, ConfigError>(Outcomes::new());
+    let coarse = match replay(spec, args.max_cases, nothing_stored) {
+        Ok(state) => state,
+        Err(e) => return invalid(&e),
+    };
+    let lines = coarse.lines.len();
+    if args.dry_run {
+        let mut t = Table {
+            columns: vec!["index".into(), "id".into(), "label".into()],
+            rows: Vec::new(),
+        };
+        for c in &coarse.cases {
+            t.rows.push(vec![
+                c.index.into(),
+                c.id.clone().into(),
+                c.label.clone().into(),
+            ]);
+        }
+        write!(out, "{}", t.render(Format::Table))?;
+        writeln!(
+            out,
+            "{} cases in sweep {} (the coarse round of its search): {lines} combination(s) of \
+             the other axes × {} values of {} over [{}, {}]",
+            coarse.cases.len(),
+            spec.name,
+            s.coarse,
+            s.axis,
+            s.lo,
+            s.hi
+        )?;
+        writeln!(
+            out,
+            "then rounds of {} value(s) in each bracket wider than {} where the outcome \
+             ({}) changes: at most {} cases in all ({} per combination); a grid of spacing {} \
+             would run {}",
+            s.per_bracket,
+            s.tol,
+            change_name(s.change),
+            lines * s.budget,
+            s.budget,
+            s.tol,
+            lines * s.grid_values()
+        )?;
+        if args.resolved {
+            for c in &coarse.cases {
+                let settings = crate::simulate::Settings::of(&c.spec).to_toml();
+                writeln!(
+                    out,
+                    "\n# case {} {} ({})\n{settings}",
+                    c.index, c.id, c.label
+                )?;
+            }
+        }
+        return Ok(ExitCode::SUCCESS);
+    }
+    let opts = sweep_options(args, spec);
+    let mut log = |line: &str| {
+        if !args.quiet {
+            eprintln!("{line}");
+        }
+    };
+    match search(spec, runner, &opts, args.max_cases, &mut log) {
+        Ok(r) => {
+            if !args.quiet {
+                writeln!(
+                    out,
+                    "search {}: {} combination(s), {} round(s), {} cases ({} run now, {} failed); \
+                     a grid of spacing {} would run {} ({:.0} %); results in {}; brackets: \
+                     xpflow query boundaries --db {}",
+                    spec.name,
+                    r.lines,
+                    r.rounds,
+                    r.cases,
+                    r.ran,
+                    r.failed,
+                    s.tol,
+                    r.grid,
+                    100.0 * r.cases as f64 / r.grid.max(1) as f64,
+                    opts.db.display(),
+                    opts.db.display()
+                )?;
+                if !r.finished {
+                    writeln!(
+                        out,
+                        "search {}: not over: {} case(s) of round {} are being run by another \
+                         process; rerun when they have finished",
+                        spec.name, r.elsewhere, r.rounds
+                    )?;
+                }
+            }
+            Ok(if r.failed > 0 {
+                ExitCode::FAILURE
+            } else {
+                ExitCode::SUCCESS
+            })
+        }
+        Err(SearchError::Config(e)) => invalid(&e),
+        Err(SearchError::Sweep(
+            e @ (SweepError::Unsupported { .. } | SweepError::TooLarge { .. }),
+        )) => {
+            eprintln!("error: {}: {e}; nothing more was run", args.file.display());
+            Ok(ExitCode::from(EXIT_INVALID))
+        }
+        Err(SearchError::Sweep(SweepError::Store(e)) | SearchError::Store(e))
+            if e.is_bad_input() =>
+        {
+            invalid(&e)
+        }
+        Err(e) => Err(e).context(format!("search {}", spec.name)),
+    }
+}
+
+/// How a change of outcome is written in messages.
+fn change_name(change: crate::config::Change) -> String {
+    match change {
+        crate::config::Change::Kind => "kind".into(),
+        crate::config::Change::StringLengthAtLeast(n) => format!("string of at least {n}"),
+    }
+}
+
+/// `xpflow query boundaries --db DB [--sweep NAME]`.
+pub(super) fn query_boundaries(
+    args: &QueryArgs,
+    filters: &[Filter],
+    out: &mut dyn Write,
+) -> anyhow::Result<ExitCode> {
+    if !filters.is_empty() {
+        return invalid(
+            &"--where does not apply to boundaries (a bracket needs every value of its line); \
+              use --sweep",
+        );
+    }
+    // a reader: read-only, never creates or changes the file
+    let store = match Store::open_read_only(&args.db) {
+        Ok(s) => s,
+        Err(e) if e.is_bad_input() => return invalid(&e),
+        Err(e) => return Err(e.into()),
+    };
+    match boundaries_table(&store, args.sweep.as_deref()) {
+        Ok(t) => {
+            write!(out, "{}", t.render(args.format))?;
+            Ok(ExitCode::SUCCESS)
+        }
+        Err(SearchError::Store(e)) if e.is_bad_input() => invalid(&e),
+        Err(SearchError::Config(e)) => invalid(&e),
+        Err(e) => Err(e.into()),
+    }
+}
