@@ -19,7 +19,7 @@ use crate::config::SweepSpec;
 use crate::observe::OutcomeKind;
 use crate::store::{CaseRecord, ClaimResult, Store, StoreError};
 
-pub use super::recorder::{resume_path, saved_state};
+pub use super::recorder::{resume_path, saved_state, states_dir};
 
 /// Options of one sweep invocation.
 #[derive(Debug, Clone)]
@@ -43,6 +43,10 @@ pub struct SweepOptions {
     /// a sweep with a larger case is refused before anything is written. Default: the machine's
     /// physical memory ([`memory::total`]).
     pub max_case_memory: f64,
+    /// A shard (one task of a cluster job): the database is a rollback-journal file on local
+    /// disk, published with its saved states into this directory after every saved state and
+    /// when the sweep ends ([`crate::store::shard::publish`]).
+    pub publish: Option<PathBuf>,
 }
 
 impl SweepOptions {
@@ -59,6 +63,7 @@ impl SweepOptions {
             state_every: Duration::from_secs(300),
             snapshot_dir: None,
             max_case_memory: memory::total(),
+            publish: None,
         }
     }
 }
@@ -145,7 +150,10 @@ pub fn run_sweep(
             })?;
     }
     check_memory(cases, opts.max_case_memory)?;
-    let mut store = Store::open(&opts.db)?;
+    let mut store = match &opts.publish {
+        Some(_) => Store::open_shard(&opts.db)?,
+        None => Store::open(&opts.db)?,
+    };
     let sweep_id = store.register_sweep(sweep)?;
     store.add_cases(sweep_id, cases)?;
     let reset = store.reset_interrupted(sweep_id, opts.retry_failed)?;
@@ -231,6 +239,9 @@ pub fn run_sweep(
         return Err(e.into());
     }
     store.finish_run(run_id)?;
+    if let Some(dir) = &opts.publish {
+        crate::store::shard::publish(&store, &states_dir(&opts.db), dir)?;
+    }
     let mut results = results.into_inner().unwrap_or_else(|p| p.into_inner());
     results.sort_by_key(|r| r.0);
     let mut summary = SweepSummary {
