@@ -3,15 +3,19 @@
 //! [`expand()`] turns a [`crate::config::SweepSpec`] into validated [`PlannedCase`]s with stable ids;
 //! [`engine`] runs them through a [`CaseRunner`] on a rayon pool, records them in the
 //! [`crate::store::Store`] (one transaction per finished case) and resumes interrupted sweeps;
-//! [`progress`] shows bars or a plain log.
+//! [`progress`] shows bars or a plain log. On a cluster, [`slurm`] writes and submits job arrays
+//! over a [`manifest`] whose tasks each run one case into a shard of their own ([`task`]).
 
 pub mod engine;
 pub mod expand;
+pub mod manifest;
 pub mod memory;
 pub mod progress;
 mod recorder;
 pub mod runner;
+pub mod slurm;
 pub mod solver_runner;
+pub mod task;
 
 pub use crate::config::PlannedCase;
 pub use engine::{run_sweep, SweepOptions, SweepSummary};
