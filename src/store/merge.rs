@@ -118,7 +118,15 @@ impl Store {
             reason,
         };
         let (publication, cases) = {
-            let s = Store::open_read_only(shard).map_err(|e| bad(e.to_string()))?;
+            let s = Store::open_read_only(shard).map_err(|e| {
+                bad(match e {
+                    StoreError::NotDatabase { .. } => "not an SQLite database".into(),
+                    StoreError::Foreign { tables, .. } => {
+                        format!("an SQLite database of another program ({tables})")
+                    }
+                    e => e.to_string(),
+                })
+            })?;
             let check = s.integrity_check().map_err(|e| bad(e.to_string()))?;
             if check != "ok" {
                 return Err(bad(format!("integrity check: {check}")));

@@ -202,7 +202,8 @@ pub fn run_sweep(
         reset,
         opts.db.display()
     ));
-    let results: Mutex<Vec<(usize, CaseRun)>> = Mutex::new(Vec::new());
+    // (index in the sweep, case, what running it gave): `cases` may be part of a sweep (a task's one)
+    let results: Mutex<Vec<(usize, &PlannedCase, CaseRun)>> = Mutex::new(Vec::new());
     let errors: Mutex<Vec<StoreError>> = Mutex::new(Vec::new());
     let pool = rayon::ThreadPoolBuilder::new()
         .num_threads(jobs)
@@ -224,7 +225,7 @@ pub fn run_sweep(
                 Ok(r) => results
                     .lock()
                     .unwrap_or_else(|p| p.into_inner())
-                    .push((case.index, r)),
+                    .push((case.index, case, r)),
                 Err(e) => errors.lock().unwrap_or_else(|p| p.into_inner()).push(e),
             }
         })
@@ -249,14 +250,14 @@ pub fn run_sweep(
         reset,
         ..Default::default()
     };
-    for (index, r) in results {
+    for (_, case, r) in results {
         match r {
             CaseRun::Finished => summary.skipped += 1,
             CaseRun::Elsewhere => summary.elsewhere += 1,
             CaseRun::Ran { kind, failed } => {
                 summary.ran += 1;
                 summary.failed += usize::from(failed);
-                summary.outcomes.push((cases[index].label.clone(), kind));
+                summary.outcomes.push((case.label.clone(), kind));
             }
         }
     }
