@@ -153,14 +153,14 @@ pub(super) fn sweep_slurm(
         .collect();
     drop(store);
     let queue = sub.queue();
-    if queue.is_none() && !rounds.is_empty() {
+    let plan = slurm::plan(&sub, cases, &done, queue.as_deref());
+    if queue.is_none() && !rounds.is_empty() && !plan.cases.is_empty() {
         writeln!(
             out,
             "warning: squeue does not answer: tasks still queued or running cannot be told from \
              interrupted ones and are submitted again"
         )?;
     }
-    let plan = slurm::plan(&sub, cases, &done, queue.as_deref());
     if plan.cases.is_empty() {
         writeln!(
             out,
