@@ -114,9 +114,17 @@ fn merge_is_idempotent_and_keeps_conflicts_apart() {
     let (sub, cases, manifest) = submission(&dir, SWEEP);
     let local = dir.join("tmp");
     for i in 0..cases.len() {
-        let code = run_case_with(&task(&manifest, i, &sub, &local), &runner(), &mut Vec::new())
-            .unwrap();
-        let want = if i == 2 { ExitCode::FAILURE } else { ExitCode::SUCCESS };
+        let code = run_case_with(
+            &task(&manifest, i, &sub, &local),
+            &runner(),
+            &mut Vec::new(),
+        )
+        .unwrap();
+        let want = if i == 2 {
+            ExitCode::FAILURE
+        } else {
+            ExitCode::SUCCESS
+        };
         assert_eq!(code, want, "task {i}");
     }
     // nothing left on the local disk; one marker, for the failed case
@@ -130,8 +138,14 @@ fn merge_is_idempotent_and_keeps_conflicts_apart() {
     assert!(marker["log"].as_str().unwrap().ends_with("task-2.out"));
     assert!(marker["error"].as_str().unwrap().contains("solve failed"));
     let s = status(&sub);
-    assert!(s.contains("4 cases: 3 done, 1 failed, 0 running, 0 pending, 0 interrupted, 0 not run"), "{s}");
-    assert!(s.contains("solve failed") && s.contains("task-2.out"), "{s}");
+    assert!(
+        s.contains("4 cases: 3 done, 1 failed, 0 running, 0 pending, 0 interrupted, 0 not run"),
+        "{s}"
+    );
+    assert!(
+        s.contains("solve failed") && s.contains("task-2.out"),
+        "{s}"
+    );
 
     let db = dir.join("merged.db");
     let (code, out) = merge(&db, &sub.shards());
@@ -143,14 +157,24 @@ fn merge_is_idempotent_and_keeps_conflicts_apart() {
     assert_eq!(code, ExitCode::SUCCESS, "{out}");
     assert!(out.contains("0 merged, 4 merged before"), "{out}");
     assert_eq!(scalar(&db, "SELECT count(*) FROM samples"), rows);
-    assert_eq!(scalar(&db, "SELECT count(*) FROM cases WHERE status = 'failed'"), 1);
+    assert_eq!(
+        scalar(&db, "SELECT count(*) FROM cases WHERE status = 'failed'"),
+        1
+    );
     assert_eq!(scalar(&db, "SELECT count(*) FROM runs"), 4);
 
     // the failed case again, fixed: its shard is published anew and replaces the failed row
-    let code = run_case_with(&task(&manifest, 2, &sub, &local), &fixed_runner(), &mut Vec::new())
-        .unwrap();
+    let code = run_case_with(
+        &task(&manifest, 2, &sub, &local),
+        &fixed_runner(),
+        &mut Vec::new(),
+    )
+    .unwrap();
     assert_eq!(code, ExitCode::SUCCESS);
-    assert!(!sub.shards().join(format!("{}.failed.json", cases[2].id)).exists());
+    assert!(!sub
+        .shards()
+        .join(format!("{}.failed.json", cases[2].id))
+        .exists());
     // a done case's task does nothing
     let mut out = Vec::new();
     run_case_with(&task(&manifest, 0, &sub, &local), &runner(), &mut out).unwrap();
@@ -159,12 +183,21 @@ fn merge_is_idempotent_and_keeps_conflicts_apart() {
     std::fs::write(sub.shards().join("0000000000000000.db"), "not a database").unwrap();
     let (code, out) = merge(&db, &sub.shards());
     assert_eq!(code, ExitCode::FAILURE, "{out}");
-    assert!(out.contains("1 merged, 3 merged before") && out.contains("bad shard"), "{out}");
-    assert_eq!(scalar(&db, "SELECT count(*) FROM cases WHERE status = 'done'"), 4);
+    assert!(
+        out.contains("1 merged, 3 merged before") && out.contains("bad shard"),
+        "{out}"
+    );
+    assert_eq!(
+        scalar(&db, "SELECT count(*) FROM cases WHERE status = 'done'"),
+        4
+    );
     assert_eq!(scalar(&db, "SELECT count(*) FROM cases"), 4);
     assert_eq!(scalar(&db, "SELECT count(*) FROM sweep_cases"), 4);
     assert_eq!(
-        Store::open_read_only(&db).unwrap().integrity_check().unwrap(),
+        Store::open_read_only(&db)
+            .unwrap()
+            .integrity_check()
+            .unwrap(),
         "ok"
     );
     std::fs::remove_file(sub.shards().join("0000000000000000.db")).unwrap();
@@ -180,7 +213,10 @@ fn merge_is_idempotent_and_keeps_conflicts_apart() {
     assert_eq!(out.matches("conflict: ").count(), 3, "{out}");
     // the database's failed case takes the shard's result
     assert!(out.contains("1 merged"), "{out}");
-    assert_eq!(scalar(&here, "SELECT count(*) FROM cases WHERE status = 'done'"), 4);
+    assert_eq!(
+        scalar(&here, "SELECT count(*) FROM cases WHERE status = 'done'"),
+        4
+    );
     assert!(scalar(&here, "SELECT count(*) FROM samples") >= before);
 }
 
@@ -225,18 +261,30 @@ output = { sample_every = 1 }
         .arg(dir.join("sweep.toml"))
         .output()
         .unwrap();
-    assert!(out.status.success(), "{}", String::from_utf8_lossy(&out.stderr));
+    assert!(
+        out.status.success(),
+        "{}",
+        String::from_utf8_lossy(&out.stderr)
+    );
     let reference = trajectory(&whole);
     let run_case = || {
         let mut c = std::process::Command::new(exe);
-        c.args(["run-case", "--quiet", "--state-every", "0", "--index", "0", "--manifest"])
-            .arg(&manifest)
-            .arg("--shards")
-            .arg(sub.shards())
-            .arg("--local")
-            .arg(dir.join("tmp"))
-            .stdout(std::process::Stdio::piped())
-            .stderr(std::process::Stdio::piped());
+        c.args([
+            "run-case",
+            "--quiet",
+            "--state-every",
+            "0",
+            "--index",
+            "0",
+            "--manifest",
+        ])
+        .arg(&manifest)
+        .arg("--shards")
+        .arg(sub.shards())
+        .arg("--local")
+        .arg(dir.join("tmp"))
+        .stdout(std::process::Stdio::piped())
+        .stderr(std::process::Stdio::piped());
         c
     };
     let shard = sub.shards().join(format!("{id}.db"));
@@ -250,14 +298,27 @@ output = { sample_every = 1 }
     child.kill().unwrap();
     child.wait().unwrap();
     let partial = trajectory(&shard).len();
-    assert!(partial < reference.len(), "killed too late ({partial} rows)");
+    assert!(
+        partial < reference.len(),
+        "killed too late ({partial} rows)"
+    );
     let s = status(&sub);
-    assert!(s.contains("1 interrupted") && s.contains("saved state at step"), "{s}");
+    assert!(
+        s.contains("1 interrupted") && s.contains("saved state at step"),
+        "{s}"
+    );
     let out = run_case().output().unwrap();
     let log = String::from_utf8_lossy(&out.stdout).to_string();
-    assert!(out.status.success(), "{log}{}", String::from_utf8_lossy(&out.stderr));
+    assert!(
+        out.status.success(),
+        "{log}{}",
+        String::from_utf8_lossy(&out.stderr)
+    );
     assert!(log.contains("continued an earlier task's shard"), "{log}");
-    assert!(!state.exists(), "the published state outlives the finished case");
+    assert!(
+        !state.exists(),
+        "the published state outlives the finished case"
+    );
     let resumed = trajectory(&shard);
     assert_eq!(resumed.len(), reference.len(), "a step missing or doubled");
     let diff = resumed

@@ -96,7 +96,10 @@ fn wait_for(sub: &Submission) -> usize {
             std::thread::sleep(Duration::from_secs(1));
             return most;
         }
-        assert!(t0.elapsed() < ROUND_DEADLINE, "tasks still queued: {queue:?}");
+        assert!(
+            t0.elapsed() < ROUND_DEADLINE,
+            "tasks still queued: {queue:?}"
+        );
         std::thread::sleep(Duration::from_millis(200));
     }
 }
@@ -153,7 +156,15 @@ fn a_sweep_runs_as_a_job_array_and_merges_into_what_a_local_sweep_gives() {
     let obstacle = sub.shards().join("cluster").join(format!("{}.h5", ids[1]));
     std::fs::create_dir_all(&obstacle).unwrap();
     let submit = |resume: bool| {
-        let mut args = vec!["sweep", file_s, "--db", db_s, "--slurm", "--submission", sub_s];
+        let mut args = vec![
+            "sweep",
+            file_s,
+            "--db",
+            db_s,
+            "--slurm",
+            "--submission",
+            sub_s,
+        ];
         args.extend(["--max-running", "2", "--submit"]);
         if resume {
             args.push("--resume");
@@ -169,7 +180,10 @@ fn a_sweep_runs_as_a_job_array_and_merges_into_what_a_local_sweep_gives() {
     assert!(most <= 2, "{most} tasks ran at once with a throttle of 2");
     let status = text(&xpflow(&["status", "--submission", sub_s]));
     assert!(status.contains("4 cases: 3 done, 1 failed"), "{status}");
-    assert!(status.contains(&ids[1]) && status.contains("snapshot"), "{status}");
+    assert!(
+        status.contains(&ids[1]) && status.contains("snapshot"),
+        "{status}"
+    );
 
     let merge = || xpflow(&["merge", db_s, sub.shards().to_str().unwrap()]);
     let first = merge();
@@ -193,7 +207,9 @@ fn a_sweep_runs_as_a_job_array_and_merges_into_what_a_local_sweep_gives() {
     let third = merge();
     assert!(third.status.success());
     assert!(text(&third).contains("1 merged, 3 merged before"));
-    let query = text(&xpflow(&["query", "cases", "--db", db_s, "--format", "csv"]));
+    let query = text(&xpflow(&[
+        "query", "cases", "--db", db_s, "--format", "csv",
+    ]));
     assert_eq!(query.matches(",done,").count(), 4, "{query}");
     let out = submit(true);
     assert!(text(&out).contains("nothing to submit (4 cases: 4 done"));

@@ -35,7 +35,7 @@ pub struct SlurmArgs {
     /// interrupted (those queued or running are left to their tasks).
     #[arg(long, requires = "slurm")]
     pub resume: bool,
-    /// Submission directory [default: `<db dir>/<db stem>.slurm`].
+    /// Submission directory \[default: `<db dir>/<db stem>.slurm`\].
     #[arg(long, requires = "slurm")]
     pub submission: Option<PathBuf>,
     /// SLURM partition.
@@ -178,14 +178,7 @@ pub(super) fn sweep_slurm(
     res.account.clone_from(&s.account);
     res.max_running = s.max_running;
     let max_array = scheduler::max_array_size().unwrap_or(DEFAULT_MAX_ARRAY_SIZE);
-    let mut round = slurm::write_round(
-        &sub,
-        &spec.file,
-        &spec.name,
-        &plan.cases,
-        &res,
-        max_array,
-    )?;
+    let mut round = slurm::write_round(&sub, &spec.file, &spec.name, &plan.cases, &res, max_array)?;
     writeln!(
         out,
         "sweep {}: {} cases, {} done, {} queued or running; round {} submits {} in {} array(s) \
@@ -284,7 +277,10 @@ pub fn run_case_with(
         }
         Err(e) => {
             eprintln!("error: {e}");
-            (if e.is_bad_input() { EXIT_INVALID } else { 1 }, e.to_string())
+            (
+                if e.is_bad_input() { EXIT_INVALID } else { 1 },
+                e.to_string(),
+            )
         }
     };
     let job = std::env::var("SLURM_ARRAY_JOB_ID")
@@ -374,7 +370,10 @@ pub fn merge_to(args: &MergeArgs, out: &mut dyn Write) -> anyhow::Result<ExitCod
 pub(super) fn submission_status(dir: &Path, out: &mut dyn Write) -> anyhow::Result<()> {
     let sub = Submission::new(dir);
     if sub.rounds().is_empty() {
-        anyhow::bail!("{} is not a submission directory (no round-N/manifest.txt)", dir.display());
+        anyhow::bail!(
+            "{} is not a submission directory (no round-N/manifest.txt)",
+            dir.display()
+        );
     }
     let queue = sub.queue();
     let states = case_states(&sub, queue.as_deref());
@@ -404,7 +403,9 @@ pub(super) fn submission_status(dir: &Path, out: &mut dyn Write) -> anyhow::Resu
                 Some(l) => format!("{error} (log {l})"),
                 None => error.clone(),
             },
-            CaseState::Interrupted { saved: Some((step, t)) } => {
+            CaseState::Interrupted {
+                saved: Some((step, t)),
+            } => {
                 format!("saved state at step {step}, t = {t:.3}")
             }
             CaseState::Interrupted { saved: None } => "no saved state (restarts at t = 0)".into(),

@@ -159,13 +159,12 @@ impl Store {
         }
         let err = self.sql_err();
         self.conn
-            .execute(
-                "ATTACH DATABASE ?1 AS shard",
-                params![immutable_uri(shard)],
-            )
+            .execute("ATTACH DATABASE ?1 AS shard", params![immutable_uri(shard)])
             .map_err(|e| bad(format!("cannot attach: {e}")))?;
         let merged = self.merge_attached(shard, &publication, &case.hash, &case.status);
-        self.conn.execute("DETACH DATABASE shard", []).map_err(err)?;
+        self.conn
+            .execute("DETACH DATABASE shard", [])
+            .map_err(err)?;
         merged.map_err(MergeError::from)
     }
 
@@ -222,7 +221,9 @@ impl Store {
                 });
             }
             Some((_, s, ..)) if s == "done" => {
-                return Ok(conflict("done in the database already (its result is kept)"))
+                return Ok(conflict(
+                    "done in the database already (its result is kept)",
+                ))
             }
             Some((_, s, owner, pid))
                 if s == "running" && owner_alive(owner.as_deref(), *pid, &host) != Some(false) =>

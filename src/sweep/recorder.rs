@@ -248,17 +248,15 @@ impl CaseObserver for Recorder<'_> {
     }
 
     fn save_state(&mut self, step: u64, state: &str) {
-        let written = self.write_state(step, state).and_then(|()| match self.publish {
-            // a shard: the database and the state leave the node at once (a task killed by its
-            // time limit loses its local disk)
-            Some(dir) => crate::store::shard::publish(
-                self.store,
-                &states_dir(&self.db),
-                dir,
-            )
-            .map_err(|e| e.to_string()),
-            None => Ok(()),
-        });
+        let written = self
+            .write_state(step, state)
+            .and_then(|()| match self.publish {
+                // a shard: the database and the state leave the node at once (a task killed by its
+                // time limit loses its local disk)
+                Some(dir) => crate::store::shard::publish(self.store, &states_dir(self.db), dir)
+                    .map_err(|e| e.to_string()),
+                None => Ok(()),
+            });
         if let Err(e) = written {
             self.io_failed("saved state", e);
         }

@@ -89,9 +89,7 @@ impl TaskError {
     pub fn is_bad_input(&self) -> bool {
         match self {
             TaskError::Manifest(_) | TaskError::Config(_) | TaskError::NotInSweep { .. } => true,
-            TaskError::Sweep(SweepError::Unsupported { .. } | SweepError::TooLarge { .. }) => {
-                true
-            }
+            TaskError::Sweep(SweepError::Unsupported { .. } | SweepError::TooLarge { .. }) => true,
             TaskError::Sweep(SweepError::Store(e)) | TaskError::Store(e) => e.is_bad_input(),
             TaskError::Sweep(SweepError::Pool { .. }) => false,
         }
@@ -192,9 +190,11 @@ pub fn run_task(opts: &TaskOptions, runner: &dyn CaseRunner) -> Result<TaskOutco
         sweep_opts.retry_failed = true;
         sweep_opts.state_every = opts.state_every;
         sweep_opts.progress = opts.progress;
-        sweep_opts.snapshot_dir = Some(std::path::absolute(&opts.shards)
-            .unwrap_or_else(|_| opts.shards.clone())
-            .join(&spec.name));
+        sweep_opts.snapshot_dir = Some(
+            std::path::absolute(&opts.shards)
+                .unwrap_or_else(|_| opts.shards.clone())
+                .join(&spec.name),
+        );
         sweep_opts.publish = Some(opts.shards.clone());
         let summary = run_sweep(&spec, std::slice::from_ref(&case), runner, &sweep_opts)?;
         Ok(TaskOutcome::Ran {

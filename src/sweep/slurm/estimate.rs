@@ -125,12 +125,18 @@ mod tests {
         let c = planned(case([200, 50], 20.0, 0.1));
         assert_eq!(c.spec.steps(), 1000.0);
         let t = time_seconds(&[&c], &Rate::Benchmark);
-        assert!((t - (1000.0 * 1e4 * 51e-6 * 1.5 + 300.0)).abs() < 1e-6, "{t}");
+        assert!(
+            (t - (1000.0 * 1e4 * 51e-6 * 1.5 + 300.0)).abs() < 1e-6,
+            "{t}"
+        );
         assert_eq!(slurm_time(t), "0-00:18:00");
         assert_eq!(slurm_time(90_000.0), "1-01:00:00");
         let semi = planned(case([200, 50], 20.0, 0.0));
         assert!(time_seconds(&[&semi], &Rate::Benchmark) > 9.0 * (t - 300.0));
-        assert_eq!(memory_mb(&[&c]), (c.spec.memory_estimate() / 1e6).ceil() as u64);
+        assert_eq!(
+            memory_mb(&[&c]),
+            (c.spec.memory_estimate() / 1e6).ceil() as u64
+        );
         let measured = Rate::from_finished(&[(c.spec.clone(), 20.0, 1000)]);
         assert_eq!(
             measured,

@@ -268,7 +268,9 @@ pub fn write_round(
     for d in [&dir, &sub.shards(), &sub.logs()] {
         std::fs::create_dir_all(d).map_err(io(d))?;
     }
-    let ext = sweep_file.extension().map_or("toml".into(), |e| e.to_string_lossy());
+    let ext = sweep_file
+        .extension()
+        .map_or("toml".into(), |e| e.to_string_lossy());
     let copy = PathBuf::from(format!("sweep.{ext}"));
     std::fs::copy(sweep_file, dir.join(&copy)).map_err(io(sweep_file))?;
     let ids: Vec<String> = cases.iter().map(|c| c.id.clone()).collect();

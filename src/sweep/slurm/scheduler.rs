@@ -137,7 +137,8 @@ mod tests {
         assert_eq!(q.len(), 2);
         assert_eq!(q[1].task, Some(3));
         assert!(q[0].is_running() && !q[1].is_running());
-        let config = "Configuration data as of 2026-01-01T00:00:00\nMaxArraySize            = 1001\n\
+        let config =
+            "Configuration data as of 2026-01-01T00:00:00\nMaxArraySize            = 1001\n\
                       MaxJobCount             = 10000\n";
         assert_eq!(parse_max_array_size(config), Some(1001));
         assert_eq!(parse_max_array_size("nothing"), None);

@@ -119,7 +119,14 @@ mod tests {
         let counts: Vec<_> = chunks.iter().map(|c| (c.offset, c.count)).collect();
         assert_eq!(counts, [(0, 1001), (1001, 1001), (2002, 501)]);
         assert_eq!(split(4, 2).len(), 2);
-        assert_eq!(split(3, 1001), [Chunk { number: 0, offset: 0, count: 3 }]);
+        assert_eq!(
+            split(3, 1001),
+            [Chunk {
+                number: 0,
+                offset: 0,
+                count: 3
+            }]
+        );
         assert!(split(0, 1001).is_empty());
     }
 
