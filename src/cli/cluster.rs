@@ -35,7 +35,7 @@ pub struct SlurmArgs {
     /// interrupted (those queued or running are left to their tasks).
     #[arg(long, requires = "slurm")]
     pub resume: bool,
-    /// Submission directory \[default: `<db dir>/<db stem>.slurm`\].
+    /// Submission directory (default: `<db dir>/<db stem>.slurm`).
     #[arg(long, requires = "slurm")]
     pub submission: Option<PathBuf>,
     /// SLURM partition.
