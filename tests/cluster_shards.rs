@@ -333,3 +333,82 @@ output = { sample_every = 1 }
     let s = status(&sub);
     assert!(s.contains("1 cases: 1 done"), "{s}");
 }
+
+/// `xpflow sweep --slurm` writes a manifest of exactly the cases the database does not have done,
+/// one line per array index, a script per array of at most MaxArraySize tasks whose indices are
+/// offset into the manifest, and refuses a second submission into the same directory without
+/// `--resume`.
+#[test]
+fn the_manifest_lists_what_is_not_done_and_arrays_split_at_max_array_size() {
+    let dir = Scratch::new("cluster", "manifest");
+    let file = dir.join("sweep.toml");
+    std::fs::write(&file, SWEEP).unwrap();
+    let cases = expand(&SweepSpec::from_file(&file).unwrap()).unwrap();
+    let db = dir.join("r.db");
+    // a local sweep did all but Wi = 3 (failed)
+    run_sweep_with(&common::sweep_args(&file, &db), &runner(), &mut Vec::new()).unwrap();
+    let sub = dir.join("sub");
+    let mut args = common::sweep_args(&file, &db);
+    args.slurm.slurm = true;
+    args.slurm.submission = Some(sub.clone());
+    args.slurm.max_running = Some(3);
+    let mut out = Vec::new();
+    assert_eq!(
+        run_sweep_with(&args, &runner(), &mut out).unwrap(),
+        ExitCode::SUCCESS
+    );
+    let out = String::from_utf8(out).unwrap();
+    assert!(
+        out.contains("3 done") && out.contains("round 1 submits 1"),
+        "{out}"
+    );
+    let manifest = std::fs::read_to_string(sub.join("round-1/manifest.txt")).unwrap();
+    let ids: Vec<&str> = manifest.lines().filter(|l| !l.starts_with('#')).collect();
+    assert_eq!(ids, [cases[2].id.as_str()]);
+    assert!(manifest.contains("# sweep: sweep.toml"));
+    assert_eq!(
+        std::fs::read_to_string(sub.join("round-1/sweep.toml")).unwrap(),
+        SWEEP
+    );
+    let script = std::fs::read_to_string(sub.join("round-1/array-0.sbatch")).unwrap();
+    assert!(script.contains("#SBATCH --array=0-0%3\n"), "{script}");
+    // estimates: the case's memory; a time from the three finished (fake) cases
+    let mb = (cases[2].spec.memory_estimate() / 1e6).ceil();
+    assert!(
+        script.contains(&format!("#SBATCH --mem={mb}M\n")),
+        "{script}"
+    );
+    assert!(
+        script.contains("finished case(s) in the database"),
+        "{script}"
+    );
+    let mut again = Vec::new();
+    assert_eq!(
+        run_sweep_with(&args, &runner(), &mut again).unwrap(),
+        ExitCode::from(2)
+    );
+
+    // four cases with MaxArraySize 3: arrays of 3 and 1, the second starting at line 3
+    let other = Submission::new(&dir.join("split"));
+    let refs: Vec<&PlannedCase> = cases.iter().collect();
+    let res = Resources {
+        time: "10".into(),
+        mem: "100M".into(),
+        ..Resources::default()
+    };
+    let round = write_round(&other, &file, "shards", &refs, &res, 3).unwrap();
+    let shapes: Vec<(usize, usize)> = round
+        .jobs
+        .iter()
+        .map(|(c, _)| (c.offset, c.count))
+        .collect();
+    assert_eq!(shapes, [(0, 3), (3, 1)]);
+    let second = std::fs::read_to_string(round.dir.join("array-1.sbatch")).unwrap();
+    assert!(second.contains("#SBATCH --array=0-0\n"), "{second}");
+    assert!(
+        second.contains("--index $((SLURM_ARRAY_TASK_ID + 3))"),
+        "{second}"
+    );
+    let listed = xpflow::sweep::manifest::Manifest::read(&round.dir.join("manifest.txt")).unwrap();
+    assert_eq!(listed.case(3).unwrap(), cases[3].id);
+}
