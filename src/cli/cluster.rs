@@ -177,6 +177,7 @@ pub(super) fn sweep_slurm(
     res.partition.clone_from(&s.partition);
     res.account.clone_from(&s.account);
     res.max_running = s.max_running;
+    res.state_every = Some(args.state_every);
     let max_array = scheduler::max_array_size().unwrap_or(DEFAULT_MAX_ARRAY_SIZE);
     let mut round = slurm::write_round(&sub, &spec.file, &spec.name, &plan.cases, &res, max_array)?;
     writeln!(

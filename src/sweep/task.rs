@@ -119,9 +119,9 @@ pub struct Marker {
     pub error: String,
     /// The task's log file, if known.
     pub log: Option<PathBuf>,
-    /// Host and SLURM job (`<array job>_<index>`) when run under SLURM.
+    /// The host the task ran on.
     pub host: String,
-    /// The SLURM job, if any.
+    /// The SLURM array task (`<array job>_<index>`) when run under SLURM.
     pub job: Option<String>,
 }
 

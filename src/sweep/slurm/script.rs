@@ -44,6 +44,9 @@ pub struct Resources {
     pub mem: String,
     /// `%K` of `--array`: most tasks of the array running at once.
     pub max_running: Option<usize>,
+    /// Minutes between a task's saved (and published) states (`run-case --state-every`; its
+    /// default when `None`).
+    pub state_every: Option<f64>,
     /// Lines of `#` comments saying where the estimates come from.
     pub notes: Vec<String>,
 }
@@ -95,8 +98,11 @@ pub fn script(chunk: Chunk, job_name: &str, res: &Resources, paths: ScriptPaths<
     for note in &res.notes {
         s += &format!("# {note}\n");
     }
+    let state_every = res
+        .state_every
+        .map_or(String::new(), |m| format!(" --state-every {m}"));
     s += &format!(
-        "exec {} run-case --manifest {} --index $((SLURM_ARRAY_TASK_ID + {})) --shards {} \\\n    \
+        "exec {} run-case --manifest {} --index $((SLURM_ARRAY_TASK_ID + {})) --shards {}{state_every} \\\n    \
          --log {}\"/{job_name}_${{SLURM_ARRAY_JOB_ID}}_${{SLURM_ARRAY_TASK_ID}}.out\"\n",
         sh_quote(&paths.exe.display().to_string()),
         sh_quote(&paths.manifest.display().to_string()),
@@ -139,6 +145,7 @@ mod tests {
             time: "0-00:18:00".into(),
             mem: "700M".into(),
             max_running: Some(2),
+            state_every: Some(2.5),
             notes: vec!["memory: estimate".into()],
         };
         let paths = ScriptPaths {
@@ -161,7 +168,7 @@ mod tests {
             "#SBATCH --output=/s/logs/xpflow-demo-r1c1_%A_%a.out\n",
             "# memory: estimate\n",
             "exec '/opt/xp flow/xpflow' run-case --manifest '/s/round-1/manifest.txt' \
-             --index $((SLURM_ARRAY_TASK_ID + 1001)) --shards '/s/shards'",
+             --index $((SLURM_ARRAY_TASK_ID + 1001)) --shards '/s/shards' --state-every 2.5",
         ] {
             assert!(s.contains(line), "{line} not in\n{s}");
         }
