@@ -77,6 +77,7 @@ fn status(db: &Path) -> ExitCode {
     run_status_to(
         &StatusArgs {
             db: vec![db.into()],
+            submission: vec![],
         },
         &mut Vec::new(),
     )

@@ -270,6 +270,7 @@ fn sweep_then_query_and_status() {
     run_status_to(
         &StatusArgs {
             db: vec![db.clone()],
+            submission: vec![],
         },
         &mut out,
     )

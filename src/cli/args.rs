@@ -30,8 +30,15 @@ pub enum Command {
     Sweep(sweep_cmds::SweepArgs),
     /// Print results tables from a results database.
     Query(sweep_cmds::QueryArgs),
-    /// Per-sweep counts of done / running / failed / pending cases.
+    /// Per-sweep counts of done / running / failed / pending cases (and, with --submission,
+    /// where each case of a cluster submission stands).
     Status(sweep_cmds::StatusArgs),
+    /// One task of a cluster submission: the case on line --index of a manifest, run into its
+    /// own shard (resuming an earlier task's).
+    RunCase(super::cluster::RunCaseArgs),
+    /// Fold the shards of a cluster submission into the sweep's database (one transaction per
+    /// shard; merging again is a no-op).
+    Merge(super::cluster::MergeArgs),
     /// Run a validation study and print its numbers and verdict.
     Validate {
         /// Which study.

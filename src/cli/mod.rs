@@ -3,6 +3,7 @@
 
 pub mod args;
 mod bench;
+pub mod cluster;
 mod run;
 mod search_cmds;
 pub mod sweep_cmds;
@@ -24,6 +25,8 @@ pub fn run(cli: Cli) -> anyhow::Result<ExitCode> {
         Command::Sweep(args) => sweep_cmds::run_sweep(&args),
         Command::Query(args) => sweep_cmds::run_query(&args),
         Command::Status(args) => sweep_cmds::run_status(&args),
+        Command::RunCase(args) => cluster::run_case(&args),
+        Command::Merge(args) => cluster::merge(&args),
         Command::Validate {
             study,
             levels,

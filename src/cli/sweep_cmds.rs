@@ -56,10 +56,13 @@ pub struct SweepArgs {
     /// Most cases a sweep file may expand to.
     #[arg(long, default_value_t = crate::sweep::expand::DEFAULT_MAX_CASES, value_parser = at_least_one)]
     pub max_cases: usize,
+    /// Running on a SLURM cluster instead of here.
+    #[command(flatten)]
+    pub slurm: super::cluster::SlurmArgs,
 }
 
 /// A count ≥ 1 (`--jobs`, `--max-cases`).
-fn at_least_one(s: &str) -> Result<usize, String> {
+pub(super) fn at_least_one(s: &str) -> Result<usize, String> {
     match s.parse::<usize>() {
         Ok(n) if n >= 1 => Ok(n),
         Ok(_) => Err("must be at least 1".into()),
@@ -68,7 +71,7 @@ fn at_least_one(s: &str) -> Result<usize, String> {
 }
 
 /// Minutes ≥ 0, finite (`--state-every`).
-fn minutes(s: &str) -> Result<f64, String> {
+pub(super) fn minutes(s: &str) -> Result<f64, String> {
     match s.parse::<f64>() {
         Ok(m) if m.is_finite() && m >= 0.0 => Ok(m),
         _ => Err(format!("`{s}` is not a number of minutes ≥ 0")),
@@ -133,9 +136,13 @@ pub struct QueryArgs {
 /// `xpflow status`: per-sweep case counts.
 #[derive(Debug, Clone, clap::Args)]
 pub struct StatusArgs {
-    /// Results databases [default: every results/*.db].
+    /// Results databases [default: every results/*.db, unless --submission is given].
     #[arg(long)]
     pub db: Vec<PathBuf>,
+    /// Submission directories of `xpflow sweep --slurm`: each case done / failed / running /
+    /// pending / interrupted / not run, from its shards, markers and squeue.
+    #[arg(long)]
+    pub submission: Vec<PathBuf>,
 }
 
 /// Handler of `xpflow sweep` with the solver's runner.
@@ -155,6 +162,15 @@ pub fn run_sweep_with(
         Err(e) => return invalid(&e),
     };
     if spec.search.is_some() {
+        if args.slurm.slurm {
+            // a search decides each round from the last one's outcomes: it would need a merge
+            // between rounds, which the cluster path does not do yet
+            return invalid(&format!(
+                "{}: a sweep with a [search] section cannot run with --slurm yet (run it on one \
+                 machine, or submit a grid)",
+                args.file.display()
+            ));
+        }
         return super::search_cmds::run_search(args, &spec, runner, out);
     }
     let cases = match expand_at_most(&spec, args.max_cases) {
@@ -186,6 +202,9 @@ pub fn run_sweep_with(
             }
         }
         return Ok(ExitCode::SUCCESS);
+    }
+    if args.slurm.slurm {
+        return super::cluster::sweep_slurm(args, &spec, &cases, runner, out);
     }
     let opts = sweep_options(args, &spec);
     match crate::sweep::run_sweep(&spec, &cases, runner, &opts) {
@@ -304,6 +323,14 @@ pub fn run_status(args: &StatusArgs) -> anyhow::Result<ExitCode> {
 
 /// Handler of `xpflow status` writing to `out` (testable).
 pub fn run_status_to(args: &StatusArgs, out: &mut dyn Write) -> anyhow::Result<ExitCode> {
+    for dir in &args.submission {
+        if let Err(e) = super::cluster::submission_status(dir, out) {
+            return invalid(&e);
+        }
+    }
+    if !args.submission.is_empty() && args.db.is_empty() {
+        return Ok(ExitCode::SUCCESS);
+    }
     let dbs: Vec<PathBuf> = if args.db.is_empty() {
         let mut v: Vec<PathBuf> = std::fs::read_dir("results")
             .map(|d| {

@@ -44,6 +44,14 @@ const SEMI_IMPLICIT_BYTES: f64 = 25e3;
 /// Exponent of E in the semi-implicit estimate (fitted to the three measurements above).
 const SEMI_IMPLICIT_EXPONENT: f64 = 1.25;
 
+/// Relative cost of a step with G solved with the flow (docs/sweeps.md, `numerics.coupling`:
+/// ≈ 2.4× the explicit step).
+pub const COUPLED_G_STEP_COST: f64 = 2.4;
+/// Relative cost of a semi-implicit step (docs/sweeps.md: ≈ 10× the explicit step).
+pub const SEMI_IMPLICIT_STEP_COST: f64 = 10.0;
+/// t_end/Δt within this of a whole number is that number of steps (0.3/0.1 = 2.9999999999999996).
+const STEP_ROUND_OFF: f64 = 1e-9;
+
 impl CaseSpec {
     /// Elements of the mesh, n1·n2 (as a float: no overflow).
     pub fn mesh_elements(&self) -> f64 {
@@ -55,11 +63,7 @@ impl CaseSpec {
     pub fn memory_estimate(&self) -> f64 {
         let e = self.mesh_elements();
         let polymer = self.relaxation_time() > 0.0;
-        let coupling = match self.numerics.coupling {
-            StressCoupling::Auto if self.fluid.beta == 0.0 => StressCoupling::SemiImplicit,
-            StressCoupling::Auto => StressCoupling::Explicit,
-            c => c,
-        };
+        let coupling = self.resolved_coupling();
         BASE_BYTES
             + match coupling {
                 _ if !polymer => EXPLICIT_BYTES_PER_ELEMENT * e,
@@ -69,6 +73,35 @@ impl CaseSpec {
                 StressCoupling::ExplicitCoupledG => COUPLED_G_BYTES_PER_ELEMENT * e,
                 _ => EXPLICIT_BYTES_PER_ELEMENT * e,
             }
+    }
+
+    /// The stress coupling `auto` stands for (semi-implicit without solvent viscosity).
+    fn resolved_coupling(&self) -> StressCoupling {
+        match self.numerics.coupling {
+            StressCoupling::Auto if self.fluid.beta == 0.0 => StressCoupling::SemiImplicit,
+            StressCoupling::Auto => StressCoupling::Explicit,
+            c => c,
+        }
+    }
+
+    /// Time steps to the end time, ⌈t_end/Δt⌉ (fewer when the outcome is decided early).
+    pub fn steps(&self) -> f64 {
+        (self.numerics.t_end / self.numerics.dt - STEP_ROUND_OFF).ceil()
+    }
+
+    /// Cost of one time step per element relative to the explicit coupling's: 1 explicit (and
+    /// without polymer), [`COUPLED_G_STEP_COST`] with G solved with the flow,
+    /// [`SEMI_IMPLICIT_STEP_COST`] semi-implicit. Times a measured seconds per element and step,
+    /// an estimate of a case's run time.
+    pub fn step_cost(&self) -> f64 {
+        if self.relaxation_time() == 0.0 {
+            return 1.0;
+        }
+        match self.resolved_coupling() {
+            StressCoupling::SemiImplicit => SEMI_IMPLICIT_STEP_COST,
+            StressCoupling::ExplicitCoupledG => COUPLED_G_STEP_COST,
+            _ => 1.0,
+        }
     }
 
     /// Refuses a mesh above [`MAX_MESH_ELEMENTS`].

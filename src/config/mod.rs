@@ -23,7 +23,10 @@ pub use case::{
     Numerics, Output, Particles, Stop, StressCoupling, DEFAULT_QUADTREE_LEVEL,
 };
 pub use error::{ConfigError, SpecError};
-pub use limits::{MAX_ELEMENTS_PER_STEP, MAX_MESH_ELEMENTS, MAX_RADII_PER_STEP};
+pub use limits::{
+    COUPLED_G_STEP_COST, MAX_ELEMENTS_PER_STEP, MAX_MESH_ELEMENTS, MAX_RADII_PER_STEP,
+    SEMI_IMPLICIT_STEP_COST,
+};
 pub use search::{Change, SearchSpec};
 pub use sweep_file::{Axis, PlannedCase, SweepSpec};
 pub use text::parse as parse_text;

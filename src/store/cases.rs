@@ -479,6 +479,38 @@ impl Store {
         rows.collect::<rusqlite::Result<_>>().map_err(err)
     }
 
+    /// Every case's id and status.
+    pub fn statuses(&self) -> Result<Vec<(String, String)>> {
+        let err = self.sql_err();
+        let mut st = self
+            .conn
+            .prepare("SELECT case_hash, status FROM cases ORDER BY id")
+            .map_err(&err)?;
+        let rows = st
+            .query_map([], |r| Ok((r.get(0)?, r.get(1)?)))
+            .map_err(&err)?;
+        rows.collect::<rusqlite::Result<_>>().map_err(err)
+    }
+
+    /// The finished cases that took steps: their case JSON (`params_json`), wall-clock seconds
+    /// and steps, for a measured cost per step.
+    pub fn finished_timings(&self) -> Result<Vec<(String, f64, u64)>> {
+        let err = self.sql_err();
+        let mut st = self
+            .conn
+            .prepare(
+                "SELECT params_json, wall_s, steps FROM cases
+                 WHERE status = 'done' AND steps > 0 AND wall_s > 0 ORDER BY id",
+            )
+            .map_err(&err)?;
+        let rows = st
+            .query_map([], |r| {
+                Ok((r.get(0)?, r.get(1)?, r.get::<_, i64>(2)?.max(0) as u64))
+            })
+            .map_err(&err)?;
+        rows.collect::<rusqlite::Result<_>>().map_err(err)
+    }
+
     /// Case counts per sweep (all sweeps, or the one named).
     pub fn counts(&self, sweep: Option<&str>) -> Result<Vec<SweepCounts>> {
         let err = self.sql_err();

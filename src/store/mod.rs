@@ -3,14 +3,18 @@
 //! One SQLite file per results set, in WAL mode with a busy timeout so that several sweeps (processes or
 //! threads, each with its own connection) can write to it at once. Schema in [`schema`]; writes in
 //! [`cases`]; the thesis-style tables in [`query`]; HDF5 snapshots with an XDMF sidecar in [`snapshot`].
+//! On a cluster each task writes a [`shard`] of its own (rollback journal, local disk, published by
+//! an atomic rename), and [`merge`] folds the shards into the sweep's database.
 //! All SQL uses bound parameters. Write transactions are `BEGIN IMMEDIATE`, so a writer waits for the lock
 //! up front instead of failing to upgrade a read lock.
 
 pub mod cases;
+pub mod merge;
 mod open;
 mod outcomes;
 pub mod query;
 pub mod schema;
+pub mod shard;
 pub mod snapshot;
 pub mod table;
 

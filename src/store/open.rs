@@ -88,7 +88,7 @@ fn wal_path(path: &Path) -> std::path::PathBuf {
 }
 
 /// An SQLite URI opening `path` read-only and immutable (no locks, no -wal/-shm files).
-fn immutable_uri(path: &Path) -> String {
+pub(super) fn immutable_uri(path: &Path) -> String {
     let full = full_path(path).to_string_lossy().into_owned();
     // the characters a URI path must escape
     let escaped = full
@@ -106,6 +106,12 @@ impl Store {
     /// [`StoreError::NotDatabase`] / [`StoreError::Foreign`] for a file that is not an xpflow
     /// database, [`StoreError::Io`] (with the full path) when its directory cannot be made.
     pub fn open(path: &Path) -> Result<Store> {
+        Store::open_journal(path, "WAL")
+    }
+
+    /// Opens (creating if needed) `path` as [`open`](Store::open) does, in the journal `mode`
+    /// (`WAL` for a sweep's database, `DELETE` for a shard: [`Store::open_shard`]).
+    pub(super) fn open_journal(path: &Path, journal: &str) -> Result<Store> {
         if let Some(dir) = path.parent().filter(|d| !d.as_os_str().is_empty()) {
             std::fs::create_dir_all(dir).map_err(|source| StoreError::Io {
                 path: full_path(dir),
@@ -125,10 +131,12 @@ impl Store {
         // switching a new file to WAL needs an exclusive lock and may return SQLITE_BUSY at
         // once, without the busy handler, while another process creates the same database
         let mode: String = retry_busy(is_busy, || {
-            conn.query_row("PRAGMA journal_mode = WAL", [], |r| r.get(0))
+            conn.query_row(&format!("PRAGMA journal_mode = {journal}"), [], |r| {
+                r.get(0)
+            })
         })
         .map_err(sql)?;
-        debug_assert!(mode.eq_ignore_ascii_case("wal") || path.as_os_str() == ":memory:");
+        debug_assert!(mode.eq_ignore_ascii_case(journal) || path.as_os_str() == ":memory:");
         let mut store = Store::configure(conn, path)?;
         let busy = |e: &StoreError| matches!(e, StoreError::Sql { source, .. } if is_busy(source));
         retry_busy(busy, || store.migrate())?;

@@ -1,12 +1,12 @@
 //! The SQLite schema (version [`SCHEMA_VERSION`]). DESIGN.md's tables plus: `meta` (code version, machine),
 //! `runs` (one row per invocation of a sweep), `sweep_cases` (a case shared by several sweeps is run once),
-//! `snapshots` (HDF5 files), and on `cases` the columns `label`, `geometry`, `t_end`, `owner`, `owner_pid`,
+//! `snapshots` (HDF5 files), `merged_shards` (the cluster shards merged in, by publication: [`super::merge`]), and on `cases` the columns `label`, `geometry`, `t_end`, `owner`, `owner_pid`,
 //! `steps`, `t_reached`, `run_id`. Views: `case_outcomes`, `string_formation`.
 
 /// Bumped whenever the schema changes; an older database is migrated by [`MIGRATIONS`].
-pub const SCHEMA_VERSION: i64 = 2;
+pub const SCHEMA_VERSION: i64 = 3;
 
-/// Statements creating version 1 from nothing (all idempotent).
+/// Statements creating the current version from nothing (all idempotent).
 pub const CREATE: &str = r#"
 CREATE TABLE IF NOT EXISTS schema_version (version INTEGER NOT NULL);
 CREATE TABLE IF NOT EXISTS meta (key TEXT PRIMARY KEY, value TEXT NOT NULL);
@@ -71,6 +71,13 @@ CREATE TABLE IF NOT EXISTS snapshots (
     step INTEGER NOT NULL, t REAL NOT NULL, file TEXT NOT NULL,
     PRIMARY KEY (case_id, step)
 );
+CREATE TABLE IF NOT EXISTS merged_shards (
+    publish_id TEXT PRIMARY KEY,
+    file TEXT NOT NULL,
+    case_hash TEXT NOT NULL,
+    status TEXT NOT NULL,
+    merged_at TEXT NOT NULL DEFAULT (strftime('%Y-%m-%dT%H:%M:%fZ', 'now'))
+);
 CREATE VIEW IF NOT EXISTS case_outcomes AS
     SELECT c.*, o.kind, o.string_length, o.t_decided, o.mean_gap, o.final_json
     FROM cases c LEFT JOIN outcomes o ON o.case_id = c.id;
@@ -81,7 +88,8 @@ CREATE VIEW IF NOT EXISTS string_formation AS
     GROUP BY c.wi, c.n_particles, c.alpha, c.beta, c.delta;
 "#;
 
-/// Migrations from version i to i + 1, applied in order. 1 → 2: `cases.settings_json`, the
-/// resolved numerical settings a case ran with (`simulate::Settings`; the code version is the
-/// run's).
-pub const MIGRATIONS: &[&str] = &["ALTER TABLE cases ADD COLUMN settings_json TEXT;"];
+/// Migrations from version i to i + 1, applied in order after [`CREATE`]. 1 → 2:
+/// `cases.settings_json`, the resolved numerical settings a case ran with (`simulate::Settings`;
+/// the code version is the run's). 2 → 3: `merged_shards`, the shards `xpflow merge` folded in
+/// (made by [`CREATE`], which runs first).
+pub const MIGRATIONS: &[&str] = &["ALTER TABLE cases ADD COLUMN settings_json TEXT;", ""];

@@ -19,7 +19,7 @@ use crate::config::SweepSpec;
 use crate::observe::OutcomeKind;
 use crate::store::{CaseRecord, ClaimResult, Store, StoreError};
 
-pub use super::recorder::{resume_path, saved_state};
+pub use super::recorder::{resume_path, saved_state, states_dir};
 
 /// Options of one sweep invocation.
 #[derive(Debug, Clone)]
@@ -43,6 +43,10 @@ pub struct SweepOptions {
     /// a sweep with a larger case is refused before anything is written. Default: the machine's
     /// physical memory ([`memory::total`]).
     pub max_case_memory: f64,
+    /// A shard (one task of a cluster job): the database is a rollback-journal file on local
+    /// disk, published with its saved states into this directory after every saved state and
+    /// when the sweep ends ([`crate::store::shard::publish`]).
+    pub publish: Option<PathBuf>,
 }
 
 impl SweepOptions {
@@ -59,6 +63,7 @@ impl SweepOptions {
             state_every: Duration::from_secs(300),
             snapshot_dir: None,
             max_case_memory: memory::total(),
+            publish: None,
         }
     }
 }
@@ -145,7 +150,10 @@ pub fn run_sweep(
             })?;
     }
     check_memory(cases, opts.max_case_memory)?;
-    let mut store = Store::open(&opts.db)?;
+    let mut store = match &opts.publish {
+        Some(_) => Store::open_shard(&opts.db)?,
+        None => Store::open(&opts.db)?,
+    };
     let sweep_id = store.register_sweep(sweep)?;
     store.add_cases(sweep_id, cases)?;
     let reset = store.reset_interrupted(sweep_id, opts.retry_failed)?;
@@ -194,7 +202,8 @@ pub fn run_sweep(
         reset,
         opts.db.display()
     ));
-    let results: Mutex<Vec<(usize, CaseRun)>> = Mutex::new(Vec::new());
+    // (index in the sweep, case, what running it gave): `cases` may be part of a sweep (a task's one)
+    let results: Mutex<Vec<(usize, &PlannedCase, CaseRun)>> = Mutex::new(Vec::new());
     let errors: Mutex<Vec<StoreError>> = Mutex::new(Vec::new());
     let pool = rayon::ThreadPoolBuilder::new()
         .num_threads(jobs)
@@ -216,7 +225,7 @@ pub fn run_sweep(
                 Ok(r) => results
                     .lock()
                     .unwrap_or_else(|p| p.into_inner())
-                    .push((case.index, r)),
+                    .push((case.index, case, r)),
                 Err(e) => errors.lock().unwrap_or_else(|p| p.into_inner()).push(e),
             }
         })
@@ -231,6 +240,9 @@ pub fn run_sweep(
         return Err(e.into());
     }
     store.finish_run(run_id)?;
+    if let Some(dir) = &opts.publish {
+        crate::store::shard::publish(&store, &states_dir(&opts.db), dir)?;
+    }
     let mut results = results.into_inner().unwrap_or_else(|p| p.into_inner());
     results.sort_by_key(|r| r.0);
     let mut summary = SweepSummary {
@@ -238,14 +250,14 @@ pub fn run_sweep(
         reset,
         ..Default::default()
     };
-    for (index, r) in results {
+    for (_, case, r) in results {
         match r {
             CaseRun::Finished => summary.skipped += 1,
             CaseRun::Elsewhere => summary.elsewhere += 1,
             CaseRun::Ran { kind, failed } => {
                 summary.ran += 1;
                 summary.failed += usize::from(failed);
-                summary.outcomes.push((cases[index].label.clone(), kind));
+                summary.outcomes.push((case.label.clone(), kind));
             }
         }
     }

@@ -4,16 +4,21 @@
 //! [`engine`] runs them through a [`CaseRunner`] on a rayon pool, records them in the
 //! [`crate::store::Store`] (one transaction per finished case) and resumes interrupted sweeps;
 //! [`progress`] shows bars or a plain log; [`search`] runs a sweep with a `[search]` section round by
-//! round through the same engine, refining one axis where the outcome changes.
+//! round through the same engine, refining one axis where the outcome changes. On a cluster,
+//! [`slurm`] writes and submits job arrays over a [`manifest`] whose tasks each run one case into a
+//! shard of their own ([`task`]).
 
 pub mod engine;
 pub mod expand;
+pub mod manifest;
 pub mod memory;
 pub mod progress;
 mod recorder;
 pub mod runner;
 pub mod search;
+pub mod slurm;
 pub mod solver_runner;
+pub mod task;
 
 pub use crate::config::PlannedCase;
 pub use engine::{run_sweep, SweepOptions, SweepSummary};

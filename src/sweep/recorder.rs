@@ -39,6 +39,10 @@ pub(super) struct Recorder<'a> {
     pub(super) resume_path: PathBuf,
     state_every: Duration,
     last_state: Instant,
+    /// The database (for the directory of its saved states).
+    db: &'a std::path::Path,
+    /// Where a shard is published after each saved state ([`super::SweepOptions::publish`]).
+    publish: Option<&'a std::path::Path>,
     /// The first saved state that could not be written: the case stops and fails (a case
     /// without its saved states would lose all its work to a kill).
     pub(super) state_error: Option<String>,
@@ -79,6 +83,8 @@ impl<'a> Recorder<'a> {
             resume_path: resume_path(&ctx.opts.db, hash),
             state_every: ctx.opts.state_every,
             last_state: Instant::now(),
+            db: &ctx.opts.db,
+            publish: ctx.opts.publish.as_deref(),
             state_error: None,
             resume_state: None,
             resumed_at: None,
@@ -242,7 +248,16 @@ impl CaseObserver for Recorder<'_> {
     }
 
     fn save_state(&mut self, step: u64, state: &str) {
-        if let Err(e) = self.write_state(step, state) {
+        let written = self
+            .write_state(step, state)
+            .and_then(|()| match self.publish {
+                // a shard: the database and the state leave the node at once (a task killed by its
+                // time limit loses its local disk)
+                Some(dir) => crate::store::shard::publish(self.store, &states_dir(self.db), dir)
+                    .map_err(|e| e.to_string()),
+                None => Ok(()),
+            });
+        if let Err(e) = written {
             self.io_failed("saved state", e);
         }
         self.last_state = Instant::now();
@@ -264,6 +279,13 @@ pub fn resume_path(db: &std::path::Path, hash: &str) -> PathBuf {
         .unwrap_or_else(|| std::path::Path::new("."))
         .join(stem)
         .join(format!("{hash}.resume.json"))
+}
+
+/// The directory of the saved states of database `db`: `<db dir>/<db stem>/`.
+pub fn states_dir(db: &std::path::Path) -> PathBuf {
+    resume_path(db, "x")
+        .parent()
+        .map_or_else(|| PathBuf::from("."), std::path::Path::to_path_buf)
 }
 
 /// The step, time and writing build of the saved state of a case, if it has a readable one.

@@ -55,5 +55,6 @@ pub fn sweep_args(file: &Path, db: &Path) -> xpflow::cli::sweep_cmds::SweepArgs 
         state_every: 5.0,
         max_memory: None,
         max_cases: xpflow::sweep::expand::DEFAULT_MAX_CASES,
+        slurm: Default::default(),
     }
 }

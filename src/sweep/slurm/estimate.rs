@@ -1,0 +1,151 @@
+//! The resources a task asks for, unless given: memory from the case's estimate
+//! ([`crate::config::CaseSpec::memory_estimate`], measured peak memory per element), time from a
+//! measured cost per element and step — the slowest of the sweep database's finished cases
+//! (their `wall_s / (steps × elements × step cost)`) when it has any, else the benchmark of
+//! docs/performance.md — times the case's steps, elements and [`CaseSpec::step_cost`].
+
+use crate::config::{CaseSpec, PlannedCase};
+
+/// Seconds per element and step of an explicit viscoelastic step without a band: `xpflow bench
+/// moving --mesh 440x110 --particles 3` took 2.457 s per step on 48 400 elements
+/// (docs/performance.md, "Where issue 8 stands"; 200×50 gives 44 µs). The band factorization,
+/// the default, is faster: an upper bound.
+pub const BENCHMARK_SECONDS_PER_ELEMENT_STEP: f64 = 51e-6;
+/// Margin on the estimated run time (machines and meshes differ from the benchmark's).
+const TIME_MARGIN: f64 = 1.5;
+/// Seconds added to every task: start-up, the mesh and the first factorization, the last
+/// publication of the shard.
+const TIME_OVERHEAD_S: f64 = 300.0;
+
+/// Where the time estimate's cost per element and step comes from.
+#[derive(Debug, Clone, PartialEq)]
+pub enum Rate {
+    /// The slowest finished case of the sweep database (`wall_s / (steps · elements · cost)`).
+    Measured {
+        /// Seconds per element and step.
+        seconds: f64,
+        /// How many finished cases were measured.
+        cases: usize,
+    },
+    /// [`BENCHMARK_SECONDS_PER_ELEMENT_STEP`].
+    Benchmark,
+}
+
+impl Rate {
+    /// The rate from finished cases `(case, wall seconds, steps)`, or the benchmark's without any.
+    pub fn from_finished(finished: &[(CaseSpec, f64, u64)]) -> Rate {
+        let rates: Vec<f64> = finished
+            .iter()
+            .filter(|(_, wall, steps)| *steps > 0 && *wall > 0.0)
+            .map(|(c, wall, steps)| wall / (*steps as f64 * c.mesh_elements() * c.step_cost()))
+            .collect();
+        match rates.iter().copied().reduce(f64::max) {
+            Some(seconds) => Rate::Measured {
+                seconds,
+                cases: rates.len(),
+            },
+            None => Rate::Benchmark,
+        }
+    }
+
+    /// Seconds per element and step.
+    pub fn seconds(&self) -> f64 {
+        match self {
+            Rate::Measured { seconds, .. } => *seconds,
+            Rate::Benchmark => BENCHMARK_SECONDS_PER_ELEMENT_STEP,
+        }
+    }
+
+    /// Where the number comes from, for the script's comment and the log.
+    pub fn source(&self) -> String {
+        match self {
+            Rate::Measured { seconds, cases } => format!(
+                "{:.1} µs per element and step, the slowest of {cases} finished case(s) in the database",
+                seconds * 1e6
+            ),
+            Rate::Benchmark => format!(
+                "{:.0} µs per element and step, `xpflow bench moving` at 440x110 (docs/performance.md)",
+                BENCHMARK_SECONDS_PER_ELEMENT_STEP * 1e6
+            ),
+        }
+    }
+}
+
+/// Memory of the largest case, in MB (rounded up).
+pub fn memory_mb(cases: &[&PlannedCase]) -> u64 {
+    let bytes = cases
+        .iter()
+        .map(|c| c.spec.memory_estimate())
+        .fold(0.0, f64::max);
+    (bytes / 1e6).ceil() as u64
+}
+
+/// Wall-clock seconds the longest case may need: its steps × elements × step cost × `rate`,
+/// with a margin and a fixed overhead.
+pub fn time_seconds(cases: &[&PlannedCase], rate: &Rate) -> f64 {
+    let longest = cases
+        .iter()
+        .map(|c| c.spec.steps() * c.spec.mesh_elements() * c.spec.step_cost() * rate.seconds())
+        .fold(0.0, f64::max);
+    longest * TIME_MARGIN + TIME_OVERHEAD_S
+}
+
+/// Seconds as SLURM's `D-HH:MM:SS`, rounded up to the minute.
+pub fn slurm_time(seconds: f64) -> String {
+    let minutes = (seconds / 60.0).ceil().max(1.0) as u64;
+    let (days, rest) = (minutes / 1440, minutes % 1440);
+    format!("{days}-{:02}:{:02}:00", rest / 60, rest % 60)
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    fn case(mesh: [usize; 2], t_end: f64, beta: f64) -> CaseSpec {
+        CaseSpec::from_value(serde_json::json!({
+            "geometry": {"confined_shear": {"h": 1.0, "l": 4.0}},
+            "fluid": {"model": "giesekus", "wi": 1.0, "alpha": 0.01, "beta": beta},
+            "particles": {"radius": 0.1, "layout": {"string": {"n": 2, "lx": 0.5, "ly": 0.1}}},
+            "numerics": {"mesh": mesh, "dt": 0.02, "t_end": t_end}
+        }))
+        .unwrap()
+    }
+
+    /// 200×50 for 1000 steps at the benchmark rate: 510 s × 1.5 + 300 s = 17.75 min → 18 min;
+    /// semi-implicit (β = 0) ten times the step; a measured rate replaces the benchmark's.
+    #[test]
+    fn time_and_memory_follow_the_cases() {
+        let planned = |spec: CaseSpec| PlannedCase {
+            index: 0,
+            id: "x".into(),
+            label: "x".into(),
+            spec,
+            params: Vec::new(),
+        };
+        let c = planned(case([200, 50], 20.0, 0.1));
+        assert_eq!(c.spec.steps(), 1000.0);
+        let t = time_seconds(&[&c], &Rate::Benchmark);
+        assert!(
+            (t - (1000.0 * 1e4 * 51e-6 * 1.5 + 300.0)).abs() < 1e-6,
+            "{t}"
+        );
+        assert_eq!(slurm_time(t), "0-00:18:00");
+        assert_eq!(slurm_time(90_000.0), "1-01:00:00");
+        let semi = planned(case([200, 50], 20.0, 0.0));
+        assert!(time_seconds(&[&semi], &Rate::Benchmark) > 9.0 * (t - 300.0));
+        assert_eq!(
+            memory_mb(&[&c]),
+            (c.spec.memory_estimate() / 1e6).ceil() as u64
+        );
+        let measured = Rate::from_finished(&[(c.spec.clone(), 20.0, 1000)]);
+        assert_eq!(
+            measured,
+            Rate::Measured {
+                seconds: 2e-6,
+                cases: 1
+            }
+        );
+        assert!(measured.source().contains("1 finished case"));
+        assert_eq!(Rate::from_finished(&[]), Rate::Benchmark);
+    }
+}
