@@ -250,6 +250,41 @@ pub fn check(pair: Pair, rows: &[ContactForce]) -> Vec<String> {
 mod tests {
     use super::*;
 
+    fn row(gap: f64, h: f64, force: f64) -> ContactForce {
+        ContactForce {
+            gap,
+            mesh: FilmMesh::uniform(h),
+            offset: 0.0,
+            force,
+            asymptote: Pair::Cylinders.asymptote(gap),
+        }
+    }
+
+    /// The verdict fails a resolved row that moved by more than RESOLVED_TOL from the finest mesh,
+    /// and a finest mesh off the asymptote at its smallest resolved gap; under-resolved rows
+    /// (fewer than one element across) are shown, not judged.
+    #[test]
+    fn the_verdict_judges_resolved_rows_and_the_asymptote() {
+        let lub = |g: f64| Pair::Cylinders.asymptote(g);
+        let good = [
+            row(0.2, 0.2, 1.344 * lub(0.2)),
+            row(0.05, 0.2, 0.5 * lub(0.05)),
+            row(0.2, 0.1, 1.353 * lub(0.2)),
+            row(0.04, 0.1, 1.01 * lub(0.04)),
+        ];
+        assert!(
+            check(Pair::Cylinders, &good).is_empty(),
+            "{:?}",
+            check(Pair::Cylinders, &good)
+        );
+        let mut drifted = good;
+        drifted[0].force = 1.30 * lub(0.2);
+        assert_eq!(check(Pair::Cylinders, &drifted).len(), 1);
+        let mut off = good;
+        off[3].force = 1.05 * lub(0.04);
+        assert_eq!(check(Pair::Cylinders, &off).len(), 1);
+    }
+
     /// A coarse film (h = 0.2a) at a gap of one element: the force is within a few per cent of
     /// the h = 0.1a force (0.6 % measured), and the asymptote orders the two configurations.
     #[test]
