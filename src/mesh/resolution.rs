@@ -4,8 +4,8 @@
 //!
 //! The count along the line of closest approach is measured in the mesh's element index space:
 //! from one surface point P to the other Q it is |Δs_x| + |Δs_y|, with s the continuous element
-//! index of each axis ([`super::Axis::index_coordinate`]; (θ, r) on an annulus). For a gap across one
-//! axis this is the gap over the element size there; for an oblique gap it counts the element
+//! index of each axis ([`super::Axis::index_coordinate`]; (θ, r) on an annulus). For a gap across
+//! one axis this is the gap over the element size there; for an oblique gap it counts the element
 //! layers of both directions the segment crosses.
 
 use super::{Mesh, Shape};
