@@ -2,7 +2,8 @@
 `tables/string_summary.md`.
 
 string_formation.md: one table per set-up (model, H, a, L, α, β), rows Wi, columns the number of particles N:
-`+` a string formed in at least one case (any initial positions), `-` decided cases but no string, `?` cases
+`+` a string formed in at least one case (any initial positions), `+?` strings formed but each on a narrowest
+gap of fewer than two elements (their outcome's warning: may depend on the mesh), `-` decided cases but no string, `?` cases
 exist but none has a decided outcome (pending, failed, diverged, timeout), blank no case; then the same grid as strings / finished cases.
 string_summary.md: per set-up and (Wi, N): finished cases, outcome counts, the gap d* = d/a (mean, range)
 and the steady ω* of each particle along the string (mean over strings, left → right), and the longest
@@ -29,7 +30,11 @@ def cell(cs: list[fl.Case]) -> str:
     decided = [c for c in cs if c.status == "done" and c.kind not in UNDECIDED]
     if not decided:
         return "?"
-    return "+" if any(c.kind == "string" for c in decided) else "-"
+    strings = [c for c in decided if c.kind == "string"]
+    if any("warning" not in c.final for c in strings):
+        return "+"
+    # every string formed on a gap of fewer than two elements (the outcome's warning, issue 25)
+    return "+?" if strings else "-"
 
 
 def title(params: dict) -> str:
@@ -62,7 +67,8 @@ def main(f: fl.Figures) -> None:
         return
     groups = fl.shear_groups(cases, KEYS)
     form = [f"# String formation (like thesis Tables 5.2–5.4)", "", header, "",
-            "`+` a string formed (any initial positions), `-` decided cases but no string, "
+            "`+` a string formed (any initial positions), `+?` strings formed but each on a gap of fewer "
+            "than two elements (may depend on the mesh), `-` decided cases but no string, "
             "`?` cases but none finished with a decided outcome (pending, failed, diverged or timeout), "
             "blank: no case.", ""]
     summ = ["# Strings: gaps and steady angular velocities by Wi and N", "", header, ""]
