@@ -7,10 +7,12 @@ use std::process::ExitCode;
 
 use anyhow::Context;
 
-use super::sweep_cmds::{invalid, sweep_options, QueryArgs, SweepArgs, EXIT_INVALID};
+use super::sweep_cmds::{
+    invalid, list_cases, print_resolved, sweep_options, QueryArgs, SweepArgs, EXIT_INVALID,
+};
 use crate::config::{ConfigError, SweepSpec};
 use crate::store::query::Filter;
-use crate::store::{Format, Store, Table};
+use crate::store::Store;
 use crate::sweep::engine::SweepError;
 use crate::sweep::search::replay::Outcomes;
 use crate::sweep::search::{boundaries_table, replay, run_search as search, SearchError};
@@ -34,18 +36,7 @@ pub(super) fn run_search(
     };
     let lines = coarse.lines.len();
     if args.dry_run {
-        let mut t = Table {
-            columns: vec!["index".into(), "id".into(), "label".into()],
-            rows: Vec::new(),
-        };
-        for c in &coarse.cases {
-            t.rows.push(vec![
-                c.index.into(),
-                c.id.clone().into(),
-                c.label.clone().into(),
-            ]);
-        }
-        write!(out, "{}", t.render(Format::Table))?;
+        list_cases(&coarse.cases, out)?;
         writeln!(
             out,
             "{} cases in sweep {} (the coarse round of its search): {lines} combination(s) of \
@@ -71,14 +62,7 @@ pub(super) fn run_search(
             lines * s.grid_values()
         )?;
         if args.resolved {
-            for c in &coarse.cases {
-                let settings = crate::simulate::Settings::of(&c.spec).to_toml();
-                writeln!(
-                    out,
-                    "\n# case {} {} ({})\n{settings}",
-                    c.index, c.id, c.label
-                )?;
-            }
+            print_resolved(&coarse.cases, out)?;
         }
         return Ok(ExitCode::SUCCESS);
     }

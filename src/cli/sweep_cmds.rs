@@ -11,7 +11,7 @@ use std::process::ExitCode;
 
 use anyhow::Context;
 
-use crate::config::SweepSpec;
+use crate::config::{PlannedCase, SweepSpec};
 use crate::store::query::{Filter, QueryKind, FILTER_COLUMNS};
 use crate::store::{Format, Store, Table};
 use crate::sweep::engine::SweepError;
@@ -178,28 +178,10 @@ pub fn run_sweep_with(
         Err(e) => return invalid(&e),
     };
     if args.dry_run {
-        let mut t = Table {
-            columns: vec!["index".into(), "id".into(), "label".into()],
-            rows: Vec::new(),
-        };
-        for c in &cases {
-            t.rows.push(vec![
-                c.index.into(),
-                c.id.clone().into(),
-                c.label.clone().into(),
-            ]);
-        }
-        write!(out, "{}", t.render(Format::Table))?;
+        list_cases(&cases, out)?;
         writeln!(out, "{} cases in sweep {}", cases.len(), spec.name)?;
         if args.resolved {
-            for c in &cases {
-                let settings = crate::simulate::Settings::of(&c.spec).to_toml();
-                writeln!(
-                    out,
-                    "\n# case {} {} ({})\n{settings}",
-                    c.index, c.id, c.label
-                )?;
-            }
+            print_resolved(&cases, out)?;
         }
         return Ok(ExitCode::SUCCESS);
     }
@@ -240,6 +222,35 @@ pub fn run_sweep_with(
         Err(SweepError::Store(e)) if e.is_bad_input() => invalid(&e),
         Err(e) => Err(e).context(format!("sweep {}", spec.name)),
     }
+}
+
+/// The `--dry-run` listing of planned cases: index, id, label.
+pub(super) fn list_cases(cases: &[PlannedCase], out: &mut dyn Write) -> std::io::Result<()> {
+    let mut t = Table {
+        columns: vec!["index".into(), "id".into(), "label".into()],
+        rows: Vec::new(),
+    };
+    for c in cases {
+        t.rows.push(vec![
+            c.index.into(),
+            c.id.clone().into(),
+            c.label.clone().into(),
+        ]);
+    }
+    write!(out, "{}", t.render(Format::Table))
+}
+
+/// `--dry-run --resolved`: every case's resolved numerical settings.
+pub(super) fn print_resolved(cases: &[PlannedCase], out: &mut dyn Write) -> std::io::Result<()> {
+    for c in cases {
+        let settings = crate::simulate::Settings::of(&c.spec).to_toml();
+        writeln!(
+            out,
+            "\n# case {} {} ({})\n{settings}",
+            c.index, c.id, c.label
+        )?;
+    }
+    Ok(())
 }
 
 /// The engine's options from the command line (database, jobs, retries, saved states, progress,
