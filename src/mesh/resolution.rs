@@ -32,25 +32,11 @@ pub struct NarrowestGap {
     pub between: Between,
 }
 
-/// The axes' coordinates of a physical point: (x, y) on a rectangle, (θ, r) on an annulus (θ
-/// clockwise from +x, as the mesh runs, taken in the θ axis' range).
-fn axis_point(mesh: &Mesh, x: [f64; 2]) -> [f64; 2] {
-    match mesh.shape {
-        Shape::Rectangle => x,
-        Shape::Annulus => {
-            let theta0 = mesh.ax.vertices[0];
-            let theta =
-                theta0 + ((-x[1]).atan2(x[0]) - theta0).rem_euclid(2.0 * std::f64::consts::PI);
-            [theta, x[0].hypot(x[1])]
-        }
-    }
-}
-
 /// Elements between two physical points (close to each other: shorter than half the period).
 pub fn elements_between(mesh: &Mesh, p: [f64; 2], q: [f64; 2]) -> f64 {
     let (n_x, _) = mesh.dims();
     let index = |x: [f64; 2]| {
-        let mut a = axis_point(mesh, x);
+        let mut a = mesh.axis_coordinates(x);
         if mesh.periodic {
             let (lo, hi) = (mesh.ax.vertices[0], mesh.ax.vertices[n_x]);
             a[0] = lo + (a[0] - lo).rem_euclid(hi - lo);
@@ -108,7 +94,7 @@ pub fn narrowest_gap(mesh: &Mesh, centres: &[[f64; 2]], radius: f64) -> Option<N
             consider(elements, gap, Between::Particles(i, j));
         }
         // the walls: the closest point of the particle to each side, in the axes' coordinates
-        let [_, r] = axis_point(mesh, c);
+        let [_, r] = mesh.axis_coordinates(c);
         let (lo, hi) = (mesh.ay.vertices[0], mesh.ay.vertices[n_y]);
         let s_near = mesh.ay.index_coordinate(r - radius);
         let s_far = mesh.ay.index_coordinate(r + radius);

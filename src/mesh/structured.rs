@@ -256,6 +256,20 @@ impl Mesh {
         }
     }
 
+    /// The axes' coordinates of a physical point: (x, y) on a rectangle, (θ, r) on an annulus (θ
+    /// clockwise from +x, as the mesh runs, taken in the θ axis' range).
+    pub fn axis_coordinates(&self, x: [f64; 2]) -> [f64; 2] {
+        match self.shape {
+            Shape::Rectangle => x,
+            Shape::Annulus => {
+                let theta0 = self.ax.vertices[0];
+                let turn = 2.0 * std::f64::consts::PI;
+                let theta = theta0 + ((-x[1]).atan2(x[0]) - theta0).rem_euclid(turn);
+                [theta, x[0].hypot(x[1])]
+            }
+        }
+    }
+
     fn locate_rectangle(&self, x: [f64; 2]) -> Option<(usize, [f64; 2])> {
         let (x0, x1) = (self.ax.vertices[0], *self.ax.vertices.last()?);
         let (y0, y1) = (self.ay.vertices[0], *self.ay.vertices.last()?);
@@ -288,8 +302,7 @@ impl Mesh {
         if !(r1 * (1.0 - ROUND_OFF)..=r2 * (1.0 + ROUND_OFF)).contains(&r) {
             return None;
         }
-        let theta0 = self.ax.vertices[0];
-        let theta = theta0 + ((-x[1]).atan2(x[0]) - theta0).rem_euclid(2.0 * std::f64::consts::PI);
+        let [theta, _] = self.axis_coordinates(x);
         let (mut et, mut er) = (self.ax.locate(theta), self.ay.locate(r));
         for _ in 0..=MAX_MOVES {
             let e = er * nt + et;
