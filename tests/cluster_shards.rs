@@ -4,7 +4,7 @@
 //! its published state when it runs again.
 
 mod common;
-use common::Scratch;
+use common::{trajectory, Scratch};
 use std::path::{Path, PathBuf};
 use std::process::ExitCode;
 
@@ -241,19 +241,6 @@ output = { sample_every = 1 }
     let (sub, cases, manifest) = submission(&dir, text);
     let id = &cases[0].id;
     let exe = env!("CARGO_BIN_EXE_xpflow");
-    let trajectory = |db: &Path| -> Vec<[f64; 4]> {
-        let store = Store::open_read_only(db).unwrap();
-        let mut st = store
-            .connection()
-            .prepare("SELECT step, x, y, omega FROM samples ORDER BY step, particle")
-            .unwrap();
-        let rows = st
-            .query_map([], |r| {
-                Ok([r.get::<_, i64>(0)? as f64, r.get(1)?, r.get(2)?, r.get(3)?])
-            })
-            .unwrap();
-        rows.map(Result::unwrap).collect()
-    };
     let whole = dir.join("whole.db");
     let out = std::process::Command::new(exe)
         .args(["sweep", "--quiet", "--jobs", "1", "--db"])
@@ -320,15 +307,7 @@ output = { sample_every = 1 }
         "the published state outlives the finished case"
     );
     let resumed = trajectory(&shard);
-    assert_eq!(resumed.len(), reference.len(), "a step missing or doubled");
-    let diff = resumed
-        .iter()
-        .zip(&reference)
-        .map(|(a, b)| {
-            assert_eq!(a[0], b[0], "steps out of order");
-            (1..4).map(|k| (a[k] - b[k]).abs()).fold(0.0, f64::max)
-        })
-        .fold(0.0, f64::max);
+    let diff = common::resumed_difference(&resumed, &reference);
     assert!(diff < RESUME_TOL, "resumed trajectory differs by {diff:e}");
     let s = status(&sub);
     assert!(s.contains("1 cases: 1 done"), "{s}");

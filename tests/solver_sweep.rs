@@ -3,7 +3,7 @@
 //! Couette cases run through the moving-particle step; cases with nothing to simulate are refused.
 
 mod common;
-use common::Scratch;
+use common::{trajectory, Scratch};
 use std::path::{Path, PathBuf};
 
 use xpflow::config::SweepSpec;
@@ -276,19 +276,6 @@ output = { sample_every = 1, snapshot_every = 10 }
             .stderr(std::process::Stdio::piped());
         c
     };
-    let trajectory = |db: &PathBuf| -> Vec<[f64; 4]> {
-        let store = Store::open(db).unwrap();
-        let mut st = store
-            .connection()
-            .prepare("SELECT step, x, y, omega FROM samples ORDER BY step, particle")
-            .unwrap();
-        let rows = st
-            .query_map([], |r| {
-                Ok([r.get::<_, i64>(0)? as f64, r.get(1)?, r.get(2)?, r.get(3)?])
-            })
-            .unwrap();
-        rows.map(Result::unwrap).collect()
-    };
     // uninterrupted
     let whole = dir.join("whole.db");
     let out = sweep(&whole).output().unwrap();
@@ -341,15 +328,7 @@ output = { sample_every = 1, snapshot_every = 10 }
         "the saved state outlives the finished case"
     );
     let resumed = trajectory(&db);
-    assert_eq!(resumed.len(), reference.len(), "a step missing or doubled");
-    let diff = resumed
-        .iter()
-        .zip(&reference)
-        .map(|(a, b)| {
-            assert_eq!(a[0], b[0], "steps out of order");
-            (1..4).map(|k| (a[k] - b[k]).abs()).fold(0.0, f64::max)
-        })
-        .fold(0.0, f64::max);
+    let diff = common::resumed_difference(&resumed, &reference);
     assert!(diff < RESUME_TOL, "resumed trajectory differs by {diff:e}");
     // the snapshots of both attempts make one series
     let snaps: i64 = Store::open(&db)

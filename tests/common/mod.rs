@@ -58,3 +58,34 @@ pub fn sweep_args(file: &Path, db: &Path) -> xpflow::cli::sweep_cmds::SweepArgs 
         slurm: Default::default(),
     }
 }
+
+/// Every stored sample of a database as (step, x, y, ω), ordered by step and particle (read-only).
+#[allow(dead_code)]
+pub fn trajectory(db: &Path) -> Vec<[f64; 4]> {
+    let store = xpflow::store::Store::open_read_only(db).unwrap();
+    let mut st = store
+        .connection()
+        .prepare("SELECT step, x, y, omega FROM samples ORDER BY step, particle")
+        .unwrap();
+    let rows = st
+        .query_map([], |r| {
+            Ok([r.get::<_, i64>(0)? as f64, r.get(1)?, r.get(2)?, r.get(3)?])
+        })
+        .unwrap();
+    rows.map(Result::unwrap).collect()
+}
+
+/// Largest difference of x, y, ω between a resumed trajectory and the uninterrupted one, which
+/// must have the same rows at the same steps.
+#[allow(dead_code)]
+pub fn resumed_difference(resumed: &[[f64; 4]], reference: &[[f64; 4]]) -> f64 {
+    assert_eq!(resumed.len(), reference.len(), "a step missing or doubled");
+    resumed
+        .iter()
+        .zip(reference)
+        .map(|(a, b)| {
+            assert_eq!(a[0], b[0], "steps out of order");
+            (1..4).map(|k| (a[k] - b[k]).abs()).fold(0.0, f64::max)
+        })
+        .fold(0.0, f64::max)
+}
