@@ -250,19 +250,61 @@ output = { sample_every = 1 }
 /// after it are recomputed, and the whole trajectory equals an uninterrupted run's.
 #[test]
 fn a_killed_case_continues_from_its_saved_state() {
+    let (dir, id, reference) = killed_and_resumed("resume", "dt = 0.02");
+    assert_eq!(reference.len(), 2 * 101, "steps 0..=100, two particles");
+    let db = dir.join("killed.db");
+    // the snapshots of both attempts make one series
+    let snaps: i64 = Store::open(&db)
+        .unwrap()
+        .connection()
+        .query_row("SELECT count(*) FROM snapshots", [], |r| r.get(0))
+        .unwrap();
+    assert_eq!(snaps, 11, "snapshots at steps 0, 10, …, 100");
+    // snapshots go to <db dir>/<sweep name>/
+    let xdmf = std::fs::read_to_string(dir.join("resume").join(format!("{id}.xdmf"))).unwrap();
+    assert_eq!(xdmf.matches("<Grid Name=\"step_").count(), 11);
+}
+
+/// The same with an adaptive step (issue 27): the step controller's state is part of the saved
+/// state, so the resumed run takes the steps the uninterrupted one took, and both end at t_end.
+#[test]
+fn a_killed_adaptive_case_continues_with_the_steps_it_would_have_taken() {
+    let (dir, _, reference) = killed_and_resumed(
+        "resume_adaptive",
+        "dt = { initial = 0.01, min = 0.001, max = 0.2, tol = 2e-4 }",
+    );
+    let steps = reference.len() / 2 - 1;
+    assert!(
+        (30..200).contains(&steps),
+        "{steps} steps: the controller should have grown the step from 0.01 (200 steps)"
+    );
+    let store = Store::open_read_only(&dir.join("whole.db")).unwrap();
+    let t_last: f64 = store
+        .connection()
+        .query_row("SELECT max(t) FROM samples", [], |r| r.get(0))
+        .unwrap();
+    assert!((t_last - 2.0).abs() < 1e-12, "ends at t_end, not {t_last}");
+}
+
+/// Runs the two-particle sweep of `numerics_dt` (the `dt = …` of its numerics) uninterrupted,
+/// then again killed after a saved state and resumed; asserts the resumed trajectory equals the
+/// uninterrupted one and returns the scratch directory, the case id and that trajectory.
+fn killed_and_resumed(name: &str, numerics_dt: &str) -> (Scratch, String, Vec<[f64; 4]>) {
     // the restored flow pattern may order the factorization differently: round-off only
     const RESUME_TOL: f64 = 1e-9;
     let (dir, file) = sweep_file(
-        "resume",
-        r#"
-name = "resume"
+        name,
+        &format!(
+            r#"
+name = "{name}"
 [base]
-geometry.confined_shear = { h = 1.0, l = 4.0 }
-fluid = { model = "giesekus", wi = 1.0, alpha = 0.01, beta = 0.1 }
-particles = { radius = 0.1, layout.pair = { lx = 0.5, ly = 0.06 } }
-numerics = { mesh = [40, 10], dt = 0.02, t_end = 2.0 }
-output = { sample_every = 1, snapshot_every = 10 }
-"#,
+geometry.confined_shear = {{ h = 1.0, l = 4.0 }}
+fluid = {{ model = "giesekus", wi = 1.0, alpha = 0.01, beta = 0.1 }}
+particles = {{ radius = 0.1, layout.pair = {{ lx = 0.5, ly = 0.06 }} }}
+numerics = {{ mesh = [40, 10], {numerics_dt}, t_end = 2.0 }}
+output = {{ sample_every = 1, snapshot_every = 10 }}
+"#
+        ),
     );
     let exe = env!("CARGO_BIN_EXE_xpflow");
     let sweep = |db: &PathBuf| {
@@ -285,7 +327,6 @@ output = { sample_every = 1, snapshot_every = 10 }
         String::from_utf8_lossy(&out.stderr)
     );
     let reference = trajectory(&whole);
-    assert_eq!(reference.len(), 2 * 101, "steps 0..=100, two particles");
     // killed after some steps have been saved
     let db = dir.join("killed.db");
     let id = expand(&SweepSpec::from_file(&file).unwrap()).unwrap()[0]
@@ -330,16 +371,7 @@ output = { sample_every = 1, snapshot_every = 10 }
     let resumed = trajectory(&db);
     let diff = common::resumed_difference(&resumed, &reference);
     assert!(diff < RESUME_TOL, "resumed trajectory differs by {diff:e}");
-    // the snapshots of both attempts make one series
-    let snaps: i64 = Store::open(&db)
-        .unwrap()
-        .connection()
-        .query_row("SELECT count(*) FROM snapshots", [], |r| r.get(0))
-        .unwrap();
-    assert_eq!(snaps, 11, "snapshots at steps 0, 10, …, 100");
-    // snapshots go to <db dir>/<sweep name>/
-    let xdmf = std::fs::read_to_string(dir.join("resume").join(format!("{id}.xdmf"))).unwrap();
-    assert_eq!(xdmf.matches("<Grid Name=\"step_").count(), 11);
+    (dir, id, reference)
 }
 
 /// A case solved in a translating frame (`numerics.frame_velocity`) reports the same lab-frame

@@ -395,6 +395,7 @@ pub fn run_status_to(args: &StatusArgs, out: &mut dyn Write) -> anyhow::Result<E
             "process",
             "t stored",
             "t_end",
+            "Δt",
             "saved state",
         ]
         .map(String::from)
@@ -422,6 +423,9 @@ pub fn run_status_to(args: &StatusArgs, out: &mut dyn Write) -> anyhow::Result<E
                 .into(),
             c.t_end
                 .map_or_else(|| "-".to_string(), |t| format!("{t}"))
+                .into(),
+            c.dt_recent
+                .map_or_else(|| "-".to_string(), |dt| format!("{dt:.4}"))
                 .into(),
             saved.into(),
         ]);

@@ -163,6 +163,26 @@ pub(super) fn validate_particles(
                 );
             }
         }
+        Study::VariableSteps => {
+            use crate::validate::moving::{CylinderStress, Frame};
+            use crate::validate::variable_steps::variable_step_convergence;
+            let h = hs.first().copied().unwrap_or(0.25);
+            let remap = crate::simulate::settings::ale_remap(Default::default());
+            let s = variable_step_convergence(
+                h,
+                &[0.04, 0.02, 0.01, 0.005],
+                0.0025,
+                cut,
+                remap,
+                Frame::Channel,
+                CylinderStress::Thesis,
+            )?;
+            println!(
+                "channel frame, history remap {remap:?}\n{}",
+                s.to_markdown()
+            );
+            ok &= s.passed();
+        }
         Study::ExplicitCoupling => {
             use crate::solver::ale::Remap;
             use crate::validate::moving::{

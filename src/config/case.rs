@@ -1,6 +1,7 @@
 //! The case specification: serde types of one simulation case (geometry, fluid, particles, numerics,
 //! output, stop rules). Construct with [`CaseSpec::from_value`], which resolves shorthands and validates.
 
+use super::time_step::TimeStep;
 use crate::fem::substructure::Factorization;
 use serde::{Deserialize, Serialize};
 
@@ -177,8 +178,9 @@ pub struct Numerics {
     /// `true` is refused by validation, so that a case never runs silently without it.
     #[serde(default)]
     pub grid_deformation: bool,
-    /// Time step Δt > 0.
-    pub dt: f64,
+    /// Time step: Δt > 0 (a number), or an error-controlled step `{ initial, min, max, tol }`
+    /// ([`TimeStep`]; a number keeps the case id it always had).
+    pub dt: TimeStep,
     /// End time; the case is undecided (`timeout`) if no outcome is reached by then.
     pub t_end: f64,
     /// Quadtree refinement level of cut-cell integration (thesis Table 2.2); default

@@ -84,9 +84,11 @@ impl CaseSpec {
         }
     }
 
-    /// Time steps to the end time, ⌈t_end/Δt⌉ (fewer when the outcome is decided early).
+    /// Time steps to the end time, ⌈t_end/Δt⌉ (fewer when the outcome is decided early); for
+    /// an adaptive step at its initial Δt (an upper estimate: the controller grows the step
+    /// where little happens).
     pub fn steps(&self) -> f64 {
-        (self.numerics.t_end / self.numerics.dt - STEP_ROUND_OFF).ceil()
+        (self.numerics.t_end / self.numerics.dt.initial() - STEP_ROUND_OFF).ceil()
     }
 
     /// Cost of one time step per element relative to the explicit coupling's: 1 explicit (and
@@ -124,7 +126,7 @@ impl CaseSpec {
     /// Refuses a time step that moves a particle over more than [`MAX_ELEMENTS_PER_STEP`]
     /// elements, in the frame the case is solved in.
     pub(super) fn validate_distance_per_step(&self) -> Result<(), SpecError> {
-        let (Some(a), dt) = (self.radius(), self.numerics.dt) else {
+        let (Some(a), dt) = (self.radius(), self.numerics.dt.initial()) else {
             return Ok(());
         };
         let (frame_velocity, frame_rotation) = self.solver_frame();

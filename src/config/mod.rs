@@ -16,6 +16,7 @@ mod limits;
 mod search;
 mod sweep_file;
 mod text;
+mod time_step;
 mod validate;
 
 pub use case::{
@@ -30,6 +31,7 @@ pub use limits::{
 pub use search::{Change, SearchSpec};
 pub use sweep_file::{Axis, PlannedCase, SweepSpec};
 pub use text::parse as parse_text;
+pub use time_step::{AdaptiveStep, TimeStep};
 pub use validate::MAX_DT_OVER_LAMBDA;
 
 #[cfg(test)]

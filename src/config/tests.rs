@@ -423,3 +423,47 @@ fn a_mesh_is_two_counts_of_bounded_size() {
         at("semi_implicit")
     );
 }
+
+/// An adaptive step (issue 27) is a table of four positive numbers with min ≤ initial ≤ max,
+/// tol < 1 and max within MAX_DT_OVER_LAMBDA λ; each error names its field. A number stays a
+/// fixed step with its old case id.
+#[test]
+fn an_adaptive_step_is_checked_field_by_field() {
+    let adaptive = |initial: f64, min: f64, max: f64, tol: f64| {
+        set(
+            shear(),
+            "/numerics/dt",
+            json!({"initial": initial, "min": min, "max": max, "tol": tol}),
+        )
+    };
+    let ok = CaseSpec::from_value(adaptive(0.02, 0.002, 0.1, 1e-3)).unwrap();
+    assert_eq!(ok.numerics.dt.initial(), 0.02);
+    assert_eq!(ok.numerics.dt.max(), 0.1);
+    assert_eq!(field_of(adaptive(0.02, 0.2, 0.1, 1e-3)), "numerics.dt.min");
+    assert_eq!(
+        field_of(adaptive(0.3, 0.002, 0.1, 1e-3)),
+        "numerics.dt.initial"
+    );
+    assert_eq!(field_of(adaptive(0.02, 0.002, 0.1, 1.5)), "numerics.dt.tol");
+    assert_eq!(field_of(adaptive(0.02, 0.0, 0.1, 1e-3)), "numerics.dt.min");
+    // Wi = 2 at γ̇ = 1: λ = 2, max ≤ λ/2
+    assert_eq!(
+        field_of(adaptive(0.02, 0.002, 1.2, 1e-3)),
+        "numerics.dt.max"
+    );
+    let typo = set(
+        shear(),
+        "/numerics/dt",
+        json!({"initial": 0.02, "min": 0.002, "max": 0.1, "tolerance": 1e-3}),
+    );
+    let err = CaseSpec::from_value(typo).unwrap_err();
+    assert!(
+        err.message.contains("unknown field `tolerance`"),
+        "{}",
+        err.message
+    );
+    // the fixed step keeps its canonical form (and so its case id)
+    let fixed = CaseSpec::from_value(shear()).unwrap();
+    let text = serde_json::to_value(&fixed.numerics).unwrap();
+    assert!(text["dt"].is_number(), "{text}");
+}

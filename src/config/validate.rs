@@ -5,6 +5,7 @@ use serde_json::Value;
 
 use super::case::{CaseSpec, FrameChoice, Geometry, HistoryRemap, Layout, Model, StressCoupling};
 use super::error::{json_path_at_line, SpecError};
+use super::time_step::TimeStep;
 use crate::geometry::layout;
 
 /// Particles may touch each other or a wall initially (the thesis' δ = 2 set-up touches the walls, 5.7.3);
@@ -56,10 +57,13 @@ impl CaseSpec {
 
     fn validate_time_step(&self) -> Result<(), SpecError> {
         let lambda = self.relaxation_time();
-        let dt = self.numerics.dt;
+        let (dt, field) = match self.numerics.dt {
+            TimeStep::Fixed(dt) => (dt, "numerics.dt"),
+            TimeStep::Adaptive(a) => (a.max, "numerics.dt.max"),
+        };
         if lambda > 0.0 && lambda.is_finite() && dt > MAX_DT_OVER_LAMBDA * lambda {
             return Err(SpecError::new(
-                "numerics.dt",
+                field,
                 format!(
                     "Δt = {dt} is more than {MAX_DT_OVER_LAMBDA} λ (λ = Wi/γ̇ = {lambda:.4}): the \
                      relaxation term is explicit in the time scheme and diverges for Δt ≳ λ; \
@@ -316,14 +320,15 @@ impl CaseSpec {
                 "the quasi-static Stokes runner (Wi = 0) has no translating frame; remove the field",
             ));
         }
-        positive("numerics.dt", n.dt)?;
+        n.dt.validate()?;
         positive("numerics.t_end", n.t_end)?;
-        if n.t_end < n.dt {
+        if n.t_end < n.dt.initial() {
             return Err(SpecError::new(
                 "numerics.t_end",
                 format!(
                     "t_end = {} is shorter than one time step dt = {}",
-                    n.t_end, n.dt
+                    n.t_end,
+                    n.dt.initial()
                 ),
             ));
         }
@@ -481,7 +486,7 @@ fn check_pairs(
     Ok(())
 }
 
-fn positive(field: &str, x: f64) -> Result<(), SpecError> {
+pub(super) fn positive(field: &str, x: f64) -> Result<(), SpecError> {
     if x > 0.0 && x.is_finite() {
         Ok(())
     } else {

@@ -3,7 +3,8 @@
 //! 1. `diverged`: a non-finite particle state.
 //! 2. `wall_contact`: a particle penetrates a wall by more than [`CONTACT_OVERLAP`]·a.
 //! 3. `jammed`: two particles overlap by more than [`CONTACT_OVERLAP`]·a.
-//! 4. `string` / `steady`: every particle's ω* = ω/γ̇ changes by less than [`STEADY_OMEGA_TOL`] per step
+//! 4. `string` / `steady`: every particle's ω* = ω/γ̇ changes at a rate |dω*/dt*| below [`STEADY_OMEGA_RATE`]
+//!    (the thesis' [`STEADY_OMEGA_TOL`] per step of [`STEADY_REFERENCE_DT`], so any step size tests the same)
 //!    (thesis 5.7.2) for [`STEADY_HOLD_STEPS`] consecutive steps; `string` if N ≥ 2 and the particles form
 //!    one chain (neighbour gaps below [`CHAIN_GAP`]·a), else `steady`. Not used for Couette.
 //! 5. `pass` / `repel` (confined shear, N ≥ 2): with Δx the unwrapped x-distance from the first (top-left)
@@ -34,8 +35,14 @@ use crate::geometry::layout;
 /// covers the coarser resolution along the film of the channel meshes (6 % lost at h_y = a/5).
 pub const MIN_GAP_ELEMENTS: f64 = 2.0;
 
-/// The thesis' steady-state tolerance on |ω*(tⁿ⁺¹) − ω*(tⁿ)| (section 5.7.2).
+/// The thesis' steady-state tolerance on |ω*(tⁿ⁺¹) − ω*(tⁿ)| (section 5.7.2) for steps of
+/// [`STEADY_REFERENCE_DT`].
 pub const STEADY_OMEGA_TOL: f64 = 1e-6;
+/// The step Δt* = Δt γ̇ at which the steady test is the thesis' per-step test (its Table 5.2 runs).
+pub const STEADY_REFERENCE_DT: f64 = 0.02;
+/// The steady test as a rate: |dω*/dt*| = |ω*(tⁿ⁺¹) − ω*(tⁿ)| / Δt* below this (5e-5), the same
+/// for fixed and adaptive steps; at Δt* = 0.02 it is the thesis' 1e-6 per step.
+pub const STEADY_OMEGA_RATE: f64 = STEADY_OMEGA_TOL / STEADY_REFERENCE_DT;
 /// Consecutive steady steps required, so that ω* passing an extremum is not mistaken for a steady state.
 pub const STEADY_HOLD_STEPS: u32 = 10;
 /// Neighbours closer than this many radii (surface gap) belong to one chain; thesis strings have gaps of
@@ -288,15 +295,19 @@ impl Classifier {
         } else {
             None
         };
-        // Steady-state test on ω* between consecutive steps.
+        // Steady-state test on the rate of change of ω* over the step.
         let omega: Vec<f64> = ps.iter().map(|p| p.omega / self.rate).collect();
-        let steady_now = self.last_omega.as_ref().is_some_and(|prev| {
-            prev.len() == omega.len()
-                && prev
-                    .iter()
-                    .zip(&omega)
-                    .all(|(a, b)| (a - b).abs() < STEADY_OMEGA_TOL)
-        });
+        let dt_star = self.last.as_ref().map(|l| (s.t - l.t) * self.rate);
+        let steady_now = match (self.last_omega.as_ref(), dt_star) {
+            (Some(prev), Some(dt_star)) if dt_star > 0.0 => {
+                prev.len() == omega.len()
+                    && prev
+                        .iter()
+                        .zip(&omega)
+                        .all(|(a, b)| (a - b).abs() < STEADY_OMEGA_RATE * dt_star)
+            }
+            _ => false,
+        };
         self.steady_steps = if steady_now { self.steady_steps + 1 } else { 0 };
         self.last_omega = Some(omega);
         let is_couette = matches!(self.geometry, Geometry::Couette { .. });

@@ -27,17 +27,66 @@ impl RigidState {
     }
 }
 
-/// Predicted centres X̂ⁿ⁺¹ = 2Xⁿ − Xⁿ⁻¹ (Eq. 5.45), or Xⁿ at the first step (Eq. 5.47).
-pub fn predict(prev: Option<&RigidState>, cur: &RigidState) -> Vec<[f64; 2]> {
+/// Predicted centres X̂ⁿ⁺¹ = Xⁿ + ω(Xⁿ − Xⁿ⁻¹) for the step ratio ω = Δtₙ/Δtₙ₋₁ (Eq. 5.45:
+/// 2Xⁿ − Xⁿ⁻¹ for ω = 1), or Xⁿ at the first step (Eq. 5.47).
+pub fn predict(prev: Option<&RigidState>, cur: &RigidState, ratio: f64) -> Vec<[f64; 2]> {
     match prev {
         None => cur.x.clone(),
         Some(p) => cur
             .x
             .iter()
             .zip(&p.x)
-            .map(|(c, q)| [2.0 * c[0] - q[0], 2.0 * c[1] - q[1]])
+            .map(|(c, q)| {
+                if ratio == 1.0 {
+                    [2.0 * c[0] - q[0], 2.0 * c[1] - q[1]]
+                } else {
+                    [c[0] + ratio * (c[0] - q[0]), c[1] + ratio * (c[1] - q[1])]
+                }
+            })
             .collect(),
     }
+}
+
+/// The whole state extrapolated to tⁿ⁺¹, Ŷ = Yⁿ + ω(Yⁿ − Yⁿ⁻¹) for Y = X, Θ, U, ω (as
+/// [`predict`]; `None` at the first step): the step controller compares the corrected state
+/// with it.
+pub fn extrapolate(prev: Option<&RigidState>, cur: &RigidState, ratio: f64) -> Option<RigidState> {
+    let p = prev?;
+    let e = |c: f64, q: f64| c + ratio * (c - q);
+    let e2 = |c: &[f64; 2], q: &[f64; 2]| [e(c[0], q[0]), e(c[1], q[1])];
+    Some(RigidState {
+        x: cur.x.iter().zip(&p.x).map(|(c, q)| e2(c, q)).collect(),
+        theta: cur
+            .theta
+            .iter()
+            .zip(&p.theta)
+            .map(|(&c, &q)| e(c, q))
+            .collect(),
+        u: cur.u.iter().zip(&p.u).map(|(c, q)| e2(c, q)).collect(),
+        omega: cur
+            .omega
+            .iter()
+            .zip(&p.omega)
+            .map(|(&c, &q)| e(c, q))
+            .collect(),
+    })
+}
+
+/// How far `state` is from the `expected` (extrapolated) one, max over particles of radius
+/// `radius`: (|ΔX| and a|ΔΘ| in radii, |ΔU| and a|Δω| in radii per unit time).
+pub fn deviation(state: &RigidState, expected: &RigidState, radius: &[f64]) -> (f64, f64) {
+    let (mut position, mut velocity) = (0.0f64, 0.0f64);
+    for (i, &a) in radius.iter().enumerate() {
+        let dx = (state.x[i][0] - expected.x[i][0]).hypot(state.x[i][1] - expected.x[i][1]);
+        let du = (state.u[i][0] - expected.u[i][0]).hypot(state.u[i][1] - expected.u[i][1]);
+        position = position
+            .max(dx / a)
+            .max((state.theta[i] - expected.theta[i]).abs());
+        velocity = velocity
+            .max(du / a)
+            .max((state.omega[i] - expected.omega[i]).abs());
+    }
+    (position, velocity)
 }
 
 /// Corrected state: trapezoidal rule Xⁿ⁺¹ = Xⁿ + ½(Uⁿ⁺¹ + Uⁿ)Δt (Eqs. 5.54–5.55), or explicit
@@ -178,7 +227,7 @@ mod tests {
         let mut cur = RigidState::at_rest(vec![[0.0, 0.0]]);
         for n in 0..10 {
             let t1 = (n + 1) as f64 * dt;
-            let _pred = predict(prev.as_ref(), &cur);
+            let _pred = predict(prev.as_ref(), &cur, 1.0);
             let next = correct(&cur, &[[a * t1, 0.0]], &[0.0], dt, false);
             prev = Some(cur);
             cur = next;

@@ -9,6 +9,7 @@
 //! without polymer (without: quasi-static Stokes motion through the same stepper). The
 //! cylinder-channel benchmark is a fixed body, computed by `xpflow validate cylinder`.
 
+pub mod adaptive;
 pub mod frame;
 pub mod run;
 pub mod settings;
@@ -20,12 +21,14 @@ pub use settings::Settings;
 
 use crate::config::{CaseSpec, Geometry};
 use crate::geometry::{ConfinedShear, CouetteError, CouetteGeometry, RotatingCouette, SetUp};
-use crate::mesh::resolution::narrowest_gap;
+use crate::mesh::resolution::{elements_between, narrowest_gap};
 use crate::observe::{FieldSnapshot, Sample};
 use crate::solver::moving::{
     ComputationalMesh, MovingCheckpoint, MovingError, MovingParticles, StepOutcome,
 };
 use crate::solver::rigid::{Motion, Particle};
+use adaptive::{StepController, Verdict};
+use serde::{Deserialize, Serialize};
 use snapshot::{in_lab, snapshot, FlowFields};
 
 /// Why a case cannot be set up.
@@ -48,6 +51,18 @@ pub struct Simulation {
     stepper: MovingParticles<SetUp>,
     frame: Frame,
     radius: f64,
+    /// The step controller of an adaptive step (`None`: a fixed Δt).
+    control: Option<StepController>,
+}
+
+/// What a saved state holds: the stepper's checkpoint and, for an adaptive step, the
+/// controller (the flattened layout keeps states saved before adaptive steps readable).
+#[derive(Debug, Clone, Serialize, Deserialize)]
+struct SavedRun {
+    #[serde(flatten)]
+    moving: MovingCheckpoint,
+    #[serde(default, skip_serializing_if = "Option::is_none")]
+    control: Option<StepController>,
 }
 
 impl Simulation {
@@ -132,6 +147,11 @@ impl Simulation {
             stepper,
             frame: Frame::of(case),
             radius,
+            control: case
+                .numerics
+                .dt
+                .adaptive()
+                .map(|a| StepController::new(a, case.characteristic_rate())),
         })
     }
 
@@ -140,12 +160,54 @@ impl Simulation {
         &self.settings
     }
 
-    /// One time step (see [`MovingParticles::step`]).
+    /// One time step (see [`MovingParticles::step`]); with an adaptive step, the step the
+    /// controller accepts (rejected ones are redone from the state before them, `adaptive`),
+    /// never past the end time.
     ///
     /// # Errors
-    /// As [`MovingParticles::step`].
+    /// As [`MovingParticles::step`]; [`MovingError::Setup`] if the state before a rejected step
+    /// cannot be restored.
     pub fn step(&mut self) -> Result<StepOutcome, MovingError> {
-        self.stepper.step()
+        let Some(control) = self.control.as_mut() else {
+            return self.stepper.step();
+        };
+        loop {
+            let remaining = self.settings.time.t_end - self.stepper.time();
+            let dt = control.dt().min(remaining);
+            self.stepper.set_dt(dt);
+            let before = self.stepper.checkpoint();
+            let report = match self.stepper.step()? {
+                StepOutcome::Contact(_) if control.retry_contact(dt) => continue,
+                StepOutcome::Stepped(report) => report,
+                ended => return Ok(ended),
+            };
+            let error = control.error_of(report.deviation);
+            let limit = motion_limit(&self.stepper, dt);
+            match control.judge(dt, error, limit) {
+                Verdict::Accept => return Ok(StepOutcome::Stepped(report)),
+                Verdict::Reject => self.stepper.restore(before)?,
+            }
+        }
+    }
+
+    /// Whether the run has reached its end time (a fixed step: its step count).
+    pub fn at_end(&self) -> bool {
+        match self.settings.time.steps {
+            Some(n) => self.steps() >= n as u64,
+            None => self.settings.time.t_end - self.time() <= END_TIME_ROUND_OFF * self.dt(),
+        }
+    }
+
+    /// Δt of the next step.
+    pub fn dt(&self) -> f64 {
+        self.control
+            .as_ref()
+            .map_or(self.stepper.dt(), StepController::dt)
+    }
+
+    /// The step controller of an adaptive step.
+    pub fn controller(&self) -> Option<&StepController> {
+        self.control.as_ref()
     }
 
     /// Steps taken.
@@ -202,10 +264,15 @@ impl Simulation {
         )
     }
 
-    /// The state after the last step as JSON (what [`restore`](Self::restore) continues from).
+    /// The state after the last step as JSON (what [`restore`](Self::restore) continues from),
+    /// with the step controller of an adaptive step.
     pub fn checkpoint(&self) -> String {
+        let saved = SavedRun {
+            moving: self.stepper.checkpoint(),
+            control: self.control.clone(),
+        };
         // (serializing plain numbers cannot fail)
-        serde_json::to_string(&self.stepper.checkpoint()).unwrap_or_default()
+        serde_json::to_string(&saved).unwrap_or_default()
     }
 
     /// Continues from a [`checkpoint`](Self::checkpoint) of the same case.
@@ -213,7 +280,34 @@ impl Simulation {
     /// # Errors
     /// The reason, if the text is not a checkpoint or does not fit the case.
     pub fn restore(&mut self, saved: &str) -> Result<(), String> {
-        let cp = serde_json::from_str::<MovingCheckpoint>(saved).map_err(|e| e.to_string())?;
-        self.stepper.restore(cp).map_err(|e| e.to_string())
+        let saved = serde_json::from_str::<SavedRun>(saved).map_err(|e| e.to_string())?;
+        if let (Some(control), Some(saved)) = (self.control.as_mut(), saved.control) {
+            *control = saved;
+        }
+        self.stepper
+            .restore(saved.moving)
+            .map_err(|e| e.to_string())
+    }
+}
+
+/// Round-off (in steps) within which the end time counts as reached.
+const END_TIME_ROUND_OFF: f64 = 1e-9;
+
+/// The largest Δt in which no particle crosses more than
+/// [`adaptive::MOTION_ELEMENTS_PER_STEP`] elements at its present velocity (over the mesh, in the
+/// frame of the solve), measured over the step `dt` just taken.
+fn motion_limit(stepper: &MovingParticles<SetUp>, dt: f64) -> f64 {
+    let state = stepper.state();
+    let mesh = stepper.flow().mesh();
+    let crossed = state
+        .x
+        .iter()
+        .zip(&state.u)
+        .map(|(x, u)| elements_between(mesh, *x, [x[0] + u[0] * dt, x[1] + u[1] * dt]))
+        .fold(0.0, f64::max);
+    if crossed > 0.0 {
+        adaptive::MOTION_ELEMENTS_PER_STEP * dt / crossed
+    } else {
+        f64::INFINITY
     }
 }

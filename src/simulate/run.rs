@@ -78,8 +78,7 @@ pub fn run_case(case: &CaseSpec, obs: &mut dyn CaseObserver) -> CaseResult {
             return finished(&sim);
         }
     }
-    let n_steps = sim.settings().time.steps as u64;
-    while sim.steps() < n_steps {
+    while !sim.at_end() {
         let contact = match sim.step() {
             Err(e) => return ended_by(e, sim.steps(), sim.time()),
             Ok(StepOutcome::Contact(_)) => return finished(&sim),

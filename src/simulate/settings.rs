@@ -7,11 +7,11 @@
 use crate::fem::substructure::Factorization;
 use serde::Serialize;
 
-use crate::config::{CaseSpec, Geometry, HistoryRemap, InterfaceRule, StressCoupling};
-use crate::observe::outcome::STEADY_OMEGA_TOL;
+use crate::config::{CaseSpec, Geometry, HistoryRemap, InterfaceRule, StressCoupling, TimeStep};
+use crate::observe::outcome::STEADY_OMEGA_RATE;
 use crate::particles::CONTACT_OVERLAP;
 use crate::solver::ale::Remap;
-use crate::solver::constitutive::GHOST_PENALTY;
+use crate::solver::constitutive::{SupgVelocity, GHOST_PENALTY};
 use crate::solver::constitutive_projection::PROJECTION_GHOST_PENALTY;
 use crate::solver::constitutive_stress::Coupling;
 use crate::solver::flow::FLOW_GHOST_PENALTY;
@@ -40,9 +40,9 @@ pub struct Settings {
     pub frame: FrameSettings,
     /// Contact: particles closer than −overlap × a (a small overlap) touch.
     pub contact_overlap: f64,
-    /// Steady rotation (thesis §5.7.2, decided by `observe::outcome`): |ω*(tⁿ⁺¹) − ω*(tⁿ)|
-    /// below this for every particle.
-    pub steady_rotation_tol: f64,
+    /// Steady rotation (thesis §5.7.2, decided by `observe::outcome`): |dω*/dt*| below this for
+    /// every particle (the thesis' 1e-6 per step of Δt* = 0.02).
+    pub steady_rotation_rate: f64,
 }
 
 /// The computational mesh.
@@ -88,12 +88,15 @@ pub struct FluidSettings {
 /// Time stepping.
 #[derive(Debug, Clone, PartialEq, Serialize)]
 pub struct TimeSettings {
-    /// Δt.
-    pub dt: f64,
+    /// Δt: fixed, or the adaptive step's settings.
+    pub dt: TimeStep,
     /// End time.
     pub t_end: f64,
-    /// Steps to the end time.
-    pub steps: usize,
+    /// Steps to the end time (a fixed step; an adaptive one ends at `t_end`).
+    pub steps: Option<usize>,
+    /// The step controller of an adaptive step (`simulate::adaptive`).
+    #[serde(skip_serializing_if = "Option::is_none")]
+    pub controller: Option<String>,
     /// The scheme.
     pub scheme: &'static str,
 }
@@ -172,7 +175,7 @@ pub fn ale_remap(remap: HistoryRemap) -> Remap {
 pub fn fluid_params(case: &CaseSpec) -> ViscoelasticParams {
     let (eta_s, eta_p) = (case.solvent_viscosity(), case.polymer_viscosity());
     let lambda = case.relaxation_time();
-    let (dt, t_end) = (case.numerics.dt, case.numerics.t_end);
+    let (dt, t_end) = (case.numerics.dt.initial(), case.numerics.t_end);
     if lambda == 0.0 {
         let mut params = ViscoelasticParams::newtonian(eta_s + eta_p, dt, t_end);
         params.factorization = case.numerics.factorization;
@@ -180,6 +183,10 @@ pub fn fluid_params(case: &CaseSpec) -> ViscoelasticParams {
     }
     let mut params = ViscoelasticParams::new(eta_s, eta_p, lambda, case.fluid.alpha, dt, t_end);
     params.factorization = case.numerics.factorization;
+    if case.numerics.dt.adaptive().is_some() {
+        // the SUPG τ of the initial step throughout: the spatial discretization stays put
+        params.supg = SupgVelocity::LocalAt(dt);
+    }
     match case.numerics.coupling {
         // without solvent viscosity the explicit stress has no viscous term (thesis §5.3.2)
         StressCoupling::Auto if eta_s == 0.0 => params.coupling = Coupling::SemiImplicit,
@@ -234,7 +241,14 @@ impl Settings {
             time: TimeSettings {
                 dt: n.dt,
                 t_end: n.t_end,
-                steps: step_count(n.t_end, n.dt),
+                steps: match n.dt {
+                    TimeStep::Fixed(dt) => Some(step_count(n.t_end, dt)),
+                    TimeStep::Adaptive(_) => None,
+                },
+                controller: n
+                    .dt
+                    .adaptive()
+                    .map(|_| super::adaptive::DESCRIPTION.to_string()),
                 scheme: if polymer {
                     "BDF2 (Euler first step), predictor-corrector particles"
                 } else {
@@ -271,7 +285,7 @@ impl Settings {
             },
             frame: FrameSettings { velocity, rotation },
             contact_overlap: CONTACT_OVERLAP,
-            steady_rotation_tol: STEADY_OMEGA_TOL,
+            steady_rotation_rate: STEADY_OMEGA_RATE,
         }
     }
 

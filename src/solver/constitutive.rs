@@ -7,6 +7,9 @@
 //!   (d + τ w·∇d, (s^{n+1} − sⁿ)/Δt + w·∇s^{n+1} − g(G^{n+1}, sⁿ)) = 0            (5.53)
 //! ```
 //!
+//! With steps of varying size the coefficients are those of variable-step BDF2 and ŝ the
+//! matching extrapolation ([`Bdf2`]: 3/2, 2, ½ and 2sⁿ − s^{n−1} for equal steps).
+//!
 //! with g the right-hand side of the log-conformation equation (Eqs. 2.7, 5.7;
 //! [`log_conformation_rhs`]) evaluated explicitly at the quadrature points, G the velocity
 //! gradient (Q1, `[G_xx, G_xy, G_yx, G_yy]`, `G_ij ≈ ∂u_i/∂x_j`) and the SUPG parameter of Eqs.
@@ -34,10 +37,12 @@ use crate::fem::quadrature::gauss_quad;
 use crate::fem::sparse::{q1_pattern, SparseMatrix};
 use crate::mesh::Mesh;
 use crate::rheology::{log_conformation_rhs, Giesekus, Sym2, VelocityGradient};
+use crate::solver::bdf::Bdf2;
 use crate::solver::ghost::{
     face_vertices, ghost_face_matrix, ghost_faces, pattern_with_faces, GhostFace,
 };
 use crate::solver::rigid::ElementCut;
+pub use crate::solver::supg::{length_along, supg_tau, SupgVelocity};
 
 /// Ghost-penalty factor γ of the transport: face coefficient γ (a0 h³ + |w| h²), the scale of
 /// the mass and convection entries of the rows it stabilizes (a0 = 3/(2Δt) or 1/Δt, h the face
@@ -84,6 +89,11 @@ pub struct LogConformationHistory {
     /// `s^{n−1}` (`None` before the first step: that one is Euler).
     pub previous: Option<Vec<Sym2>>,
     steps: usize,
+    /// Δt of the last step (from s^{n−1} to sⁿ), for the variable-step coefficients of the next;
+    /// `None` before the first step (and in states saved before steps could vary: then the
+    /// next step is taken as of the same size).
+    #[serde(default, skip_serializing_if = "Option::is_none")]
+    last_dt: Option<f64>,
 }
 
 impl LogConformationHistory {
@@ -98,6 +108,7 @@ impl LogConformationHistory {
             current: s0,
             previous: None,
             steps: 0,
+            last_dt: None,
         }
     }
 
@@ -106,16 +117,32 @@ impl LogConformationHistory {
         self.steps
     }
 
-    /// Ends a step with its solution: s^{n−1} ← sⁿ, sⁿ ← `next`.
-    pub fn push(&mut self, next: Vec<Sym2>) {
+    /// Ends a step of size `dt` with its solution: s^{n−1} ← sⁿ, sⁿ ← `next`.
+    pub fn push(&mut self, next: Vec<Sym2>, dt: f64) {
         self.previous = Some(std::mem::replace(&mut self.current, next));
         self.steps += 1;
+        self.last_dt = Some(dt);
     }
 
-    /// Ends a step in which `s` did not change (a fluid without polymer: s = 0 throughout), without
-    /// copying the fields.
-    pub fn push_unchanged(&mut self) {
+    /// Ends a step of size `dt` in which `s` did not change (a fluid without polymer: s = 0
+    /// throughout), without copying the fields.
+    pub fn push_unchanged(&mut self, dt: f64) {
         self.steps += 1;
+        self.last_dt = Some(dt);
+    }
+
+    /// Δt of the last step (`None` before the first, or unknown in an old saved state).
+    pub fn last_dt(&self) -> Option<f64> {
+        self.last_dt
+    }
+
+    /// The BDF2 coefficients of a step `dt` from these levels: Euler without s^{n−1}, else
+    /// variable-step BDF2 after the last step (taken as `dt` when unknown).
+    pub fn bdf2(&self, dt: f64) -> Bdf2 {
+        match self.previous {
+            None => Bdf2::EULER,
+            Some(_) => Bdf2::after(dt, Some(self.last_dt.unwrap_or(dt))),
+        }
     }
 }
 
@@ -143,55 +170,6 @@ pub struct TransportTimings {
     pub solve: f64,
 }
 
-/// SUPG parameter of Eqs. 3.22–3.24: `τ = β̄ h/(2 U_c)`, `β̄ = min(1, C)`, `C = U_c Δt/h`,
-/// which is `min(h/(2 U_c), Δt/2)` (and `Δt/2` for `U_c = 0`, where the SUPG term vanishes anyway).
-#[inline]
-pub fn supg_tau(speed: f64, h: f64, dt: f64) -> f64 {
-    if speed > 0.0 && speed * dt >= h {
-        h / (2.0 * speed)
-    } else {
-        0.5 * dt
-    }
-}
-
-/// Element length in the direction of `w` at a point with Jacobian `jac` (`J_ij = ∂x_i/∂ξ_j`): the
-/// chord through the point of the (locally affine) element, `h = 2‖w‖/‖J⁻¹w‖_∞` (the reference
-/// square [−1, 1]² has the chord `2/‖r‖_∞` in the unit direction r); 0 for `w = 0`.
-#[inline]
-pub fn length_along(jac: &[[f64; 2]; 2], det: f64, w: [f64; 2]) -> f64 {
-    let speed = (w[0] * w[0] + w[1] * w[1]).sqrt();
-    if speed == 0.0 {
-        return 0.0;
-    }
-    let r = [
-        (jac[1][1] * w[0] - jac[0][1] * w[1]) / det,
-        (-jac[1][0] * w[0] + jac[0][0] * w[1]) / det,
-    ];
-    2.0 * speed / r[0].abs().max(r[1].abs())
-}
-
-/// Characteristic velocity of the SUPG parameter ("Note on the SUPG parameter", §2.3.2).
-#[derive(Debug, Clone, Copy, PartialEq, Default)]
-pub enum SupgVelocity {
-    /// Case 1 (Eqs. 2.37, 3.22–3.24): `U_c = ‖w‖` at each quadrature point with the Courant
-    /// switch, `τ = min(h/(2‖w‖), Δt/2)` — the thesis' choice for particle flows.
-    #[default]
-    Local,
-    /// Case 3 (Eq. 2.42): a global velocity scale, `τ = h/(2 U_glob)` (β̄ = 1), independent of Δt.
-    Global(f64),
-}
-
-impl SupgVelocity {
-    /// τ at a point with convective speed `speed`, element length `h` along the flow, step `dt`.
-    #[inline]
-    pub fn tau(self, speed: f64, h: f64, dt: f64) -> f64 {
-        match self {
-            SupgVelocity::Local => supg_tau(speed, h, dt),
-            SupgVelocity::Global(u) => h / (2.0 * u),
-        }
-    }
-}
-
 /// Nodal data of one element for the transport kernel.
 #[derive(Debug, Clone, Copy)]
 pub struct TransportElement<'a> {
@@ -201,15 +179,15 @@ pub struct TransportElement<'a> {
     pub w: [[f64; 2]; 9],
     /// G at the Q1 corners.
     pub g: [[f64; 4]; 4],
-    /// History term at the corners: `(2sⁿ − ½s^{n−1})/Δt` (BDF2) or `sⁿ/Δt` (Euler).
+    /// History term at the corners: `(c₁sⁿ − c₂s^{n−1})/Δt` (BDF2, [`Bdf2`]) or `sⁿ/Δt` (Euler).
     pub history: [Sym2; 4],
-    /// Argument of g at the corners: `ŝ = 2sⁿ − s^{n−1}` (BDF2) or `sⁿ` (Euler).
+    /// Argument of g at the corners: `ŝ = (1+ω)sⁿ − ωs^{n−1}` (BDF2) or `sⁿ` (Euler).
     pub s_arg: [Sym2; 4],
 }
 
 /// Local SUPG matrix `k[a][b] = Σ_q w_q (ψ_a + τ w·∇ψ_a)(a0 ψ_b + w·∇ψ_b)` and right-hand sides
 /// `f[a] = Σ_q w_q (ψ_a + τ w·∇ψ_a)(history + g(G, s_arg))` of one element (or its fluid part),
-/// for the quadrature `points` (reference point, reference weight). `a0` is `3/(2Δt)` (BDF2) or
+/// for the quadrature `points` (reference point, reference weight). `a0` is `c₀/Δt` (BDF2: 3/(2Δt) for equal steps) or
 /// `1/Δt` (Euler). Overwrites `k` and `f`.
 #[allow(clippy::too_many_arguments)]
 pub fn transport_element_kernel(
@@ -403,7 +381,7 @@ impl LogConformationTransport {
                 return Err(ConstitutiveError::NonFinite { step, vertex: v });
             }
         }
-        history.push(next);
+        history.push(next, dt);
         self.timings = TransportTimings {
             assembly: (t1 - t0).as_secs_f64(),
             symbolic,
@@ -423,8 +401,10 @@ impl LogConformationTransport {
     ) {
         self.matrix.zero();
         self.rhs.iter_mut().for_each(|r| r.fill(0.0));
-        let bdf2 = history.previous.as_ref();
-        let a0 = if bdf2.is_some() { 1.5 / dt } else { 1.0 / dt };
+        let bdf = history.bdf2(dt);
+        let previous = history.previous.as_deref();
+        let a0 = bdf.c0 / dt;
+        let (w1, w0) = bdf.extrapolation();
         let (mut k, mut f) = ([[0.0; 4]; 4], [Sym2::ZERO; 4]);
         let mut kflat = [0.0; 16];
         let mut fc = [0.0; 4];
@@ -452,10 +432,10 @@ impl LogConformationTransport {
                 let v = verts[a];
                 el.g[a] = flow.gradient[v];
                 let sn = history.current[v];
-                match bdf2 {
+                match previous {
                     Some(prev) => {
-                        el.history[a] = (1.0 / dt) * (2.0 * sn - 0.5 * prev[v]);
-                        el.s_arg[a] = 2.0 * sn - prev[v];
+                        el.history[a] = (1.0 / dt) * (bdf.c1 * sn - bdf.c2 * prev[v]);
+                        el.s_arg[a] = w1 * sn + w0 * prev[v];
                     }
                     None => {
                         el.history[a] = (1.0 / dt) * sn;
@@ -498,8 +478,8 @@ impl LogConformationTransport {
                 // the time-derivative part penalizes the jump of the discrete derivative
                 // (a0 s^{n+1} − history), so the penalty does not damp s at a rate 1/Δt
                 let mass = self.ghost_penalty * h * h * h;
-                let hist = verts.map(|j| match bdf2 {
-                    Some(prev) => (1.0 / dt) * (2.0 * history.current[j] - 0.5 * prev[j]),
+                let hist = verts.map(|j| match previous {
+                    Some(prev) => (1.0 / dt) * (bdf.c1 * history.current[j] - bdf.c2 * prev[j]),
                     None => (1.0 / dt) * history.current[j],
                 });
                 for a in 0..8 {

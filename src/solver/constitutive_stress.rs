@@ -26,6 +26,7 @@
 
 use crate::mesh::Mesh;
 use crate::rheology::{Giesekus, SemiImplicitStress, Sym2};
+use crate::solver::bdf::Bdf2;
 use crate::solver::constitutive_projection::{gradient_field_at, sym_at, sym_gradient_at};
 use crate::solver::polymer_terms::{PolymerStress, StressLin};
 
@@ -51,6 +52,8 @@ pub struct CouplingStress<'a> {
     pub coupling: Coupling,
     /// Time step (semi-implicit only).
     pub dt: f64,
+    /// The BDF2 coefficients of this step (semi-implicit with `previous` only).
+    pub bdf: Bdf2,
     /// Mesh velocity at the Q2 nodes (semi-implicit only; `None` = fixed mesh).
     pub mesh_velocity: Option<&'a [[f64; 2]]>,
     /// Decoupled DEVSS-G: `θ` and the lagged `Gⁿ` at the Q1 vertices.
@@ -76,12 +79,17 @@ impl PolymerStress for CouplingStress<'_> {
                         (si, dc, si.constant)
                     }
                     Some(prev) => {
+                        // c^{n+1} = (c₁cⁿ − c₂c^{n−1})/c₀ + (Δt/c₀)(…) at the extrapolated ĉ:
+                        // (4cⁿ − c^{n−1})/3 + (2Δt/3)(…) and ĉ = 2cⁿ − c^{n−1} for equal steps
+                        let b = self.bdf;
+                        let (w1, w0) = b.extrapolation();
                         let cp = sym_at(self.mesh, prev, e, xi);
                         let dcp = sym_gradient_at(self.mesh, prev, e, xi);
-                        let hat = 2.0 * c - cp;
-                        let dhat = [2.0 * dc[0] - dcp[0], 2.0 * dc[1] - dcp[1]];
-                        let si = SemiImplicitStress::new(&self.model, hat, 2.0 * self.dt / 3.0);
-                        let shift = (-2.0 * self.model.modulus() / 3.0) * (c - cp);
+                        let hat = w1 * c + w0 * cp;
+                        let dhat = [w1 * dc[0] + w0 * dcp[0], w1 * dc[1] + w0 * dcp[1]];
+                        let si = SemiImplicitStress::new(&self.model, hat, self.dt / b.c0);
+                        let base = (b.c1 / b.c0) * c - (b.c2 / b.c0) * cp;
+                        let shift = self.model.modulus() * (base - hat);
                         (si, dhat, si.constant + shift)
                     }
                 };
@@ -157,6 +165,7 @@ mod tests {
             conformation: &c,
             coupling: Coupling::Explicit,
             dt: 0.1,
+            bdf: Bdf2::with_ratio(1.0),
             mesh_velocity: None,
             devss: Some((0.5, &g)),
             previous: None,

@@ -1,6 +1,7 @@
 //! Weak forms and solvers.
 
 pub mod ale;
+pub mod bdf;
 pub mod constitutive;
 pub mod constitutive_projection;
 pub mod constitutive_stress;
@@ -11,4 +12,5 @@ pub mod moving;
 pub mod norms;
 pub mod polymer_terms;
 pub mod rigid;
+pub mod supg;
 pub mod viscoelastic;

@@ -17,13 +17,15 @@ use std::time::Instant;
 pub use crate::geometry::Confinement;
 pub use crate::mesh::follow::FollowingMesh;
 use crate::mesh::{Axis, Mesh, Side};
-use crate::particles::{correct, predict, Contact, RigidState, CONTACT_OVERLAP};
+use crate::particles::{
+    correct, deviation, extrapolate, predict, Contact, RigidState, CONTACT_OVERLAP,
+};
 use crate::solver::ale::{AleError, AleMap, Remap, RigidMove, TemporaryAle};
 use crate::solver::cutcells::{compute_cuts, CutError};
 use crate::solver::rigid::{ElementCut, Motion, Particle};
 use crate::solver::viscoelastic::{
-    FlowSolution, FlowState, HistoryMap, StepReport, ViscoelasticError, ViscoelasticFlow,
-    ViscoelasticParams,
+    Deviation, FlowSolution, FlowState, HistoryMap, StepReport, ViscoelasticError,
+    ViscoelasticFlow, ViscoelasticParams,
 };
 use crate::xfem::CutOptions;
 
@@ -189,7 +191,6 @@ pub struct MovingParticles<D: Confinement> {
     prev: Option<RigidState>,
     /// X̂ⁿ: the (predicted) positions at which the current fields were computed.
     fields_at: Vec<[f64; 2]>,
-    dt: f64,
     /// The mesh that follows the particles (`None`: fixed mesh).
     follow: Option<FollowingMesh>,
 }
@@ -251,7 +252,6 @@ impl<D: Confinement + Clone + 'static> MovingParticles<D> {
             cur,
             prev: None,
             fields_at: x0,
-            dt: params.dt,
             follow,
         })
     }
@@ -290,6 +290,7 @@ impl<D: Confinement + Clone + 'static> MovingParticles<D> {
     pub fn step(&mut self) -> Result<StepOutcome, MovingError> {
         let t_step = Instant::now();
         let step = self.flow.history().steps() + 1;
+        let expected = extrapolate(self.prev.as_ref(), &self.cur, self.step_ratio());
         let x_pred = self.predict();
         if let Some(c) = self.domain.contact(&x_pred, &self.radius, self.min_gap()) {
             return Ok(StepOutcome::Contact(c));
@@ -313,6 +314,10 @@ impl<D: Confinement + Clone + 'static> MovingParticles<D> {
         let solution = self.solve_flow()?;
         let mut report = self.solve_stress(solution)?;
         self.correct(x_pred, step)?;
+        report.deviation = expected.map(|e| {
+            let (position, velocity) = deviation(&self.cur, &e, &self.radius);
+            Deviation { position, velocity }
+        });
         report.timings.ale = ale;
         report.timings.classify = classify;
         report.timings.total = t_step.elapsed().as_secs_f64();
@@ -322,9 +327,31 @@ impl<D: Confinement + Clone + 'static> MovingParticles<D> {
         })
     }
 
-    /// Step 1, predict: X̂ⁿ⁺¹ = 2Xⁿ − Xⁿ⁻¹ (Eqs. 5.45–5.47; Xⁿ before the first step).
+    /// Step 1, predict: X̂ⁿ⁺¹ = Xⁿ + ω(Xⁿ − Xⁿ⁻¹), ω = Δtₙ/Δtₙ₋₁ (Eqs. 5.45–5.47 for ω = 1;
+    /// Xⁿ before the first step).
     fn predict(&self) -> Vec<[f64; 2]> {
-        predict(self.prev.as_ref(), &self.cur)
+        predict(self.prev.as_ref(), &self.cur, self.step_ratio())
+    }
+
+    /// ω = Δtₙ/Δtₙ₋₁ of the coming step (1 before the first step or when the last is unknown).
+    fn step_ratio(&self) -> f64 {
+        let dt = self.dt();
+        dt / self.flow.history().last_dt().unwrap_or(dt)
+    }
+
+    /// Δt of the coming step.
+    pub fn dt(&self) -> f64 {
+        self.flow.params().dt
+    }
+
+    /// Sets Δt of the coming steps (variable steps: the predictor, the ALE mesh velocity and the
+    /// BDF2 stress follow the ratio to the last step; keep it within [½, 2] for second order and
+    /// stability).
+    ///
+    /// # Panics
+    /// If `dt` is not positive and finite.
+    pub fn set_dt(&mut self, dt: f64) {
+        self.flow.set_dt(dt);
     }
 
     /// Step 2, ale_map: the computational mesh of the coming step (refined around X̂ⁿ⁺¹ if it
@@ -357,7 +384,7 @@ impl<D: Confinement + Clone + 'static> MovingParticles<D> {
                 displacement: [to[0] - from[0], to[1] - from[1]],
             })
             .collect();
-        let first_order = self.flow.history().previous.is_none();
+        let bdf = self.flow.history().bdf2(self.dt());
         let target = onto.as_ref().unwrap_or(self.flow.mesh());
         let map = self
             .ale
@@ -366,8 +393,8 @@ impl<D: Confinement + Clone + 'static> MovingParticles<D> {
                 target,
                 &moves,
                 self.domain.period(),
-                self.dt,
-                first_order,
+                self.dt(),
+                bdf,
             )
             .map_err(|source| MovingError::Ale { step, source })?;
         Ok((onto, Some(map)))
@@ -401,7 +428,7 @@ impl<D: Confinement + Clone + 'static> MovingParticles<D> {
         let rigid = self.flow.rigid_velocities();
         let u: Vec<[f64; 2]> = rigid.iter().map(|r| [r[0], r[1]]).collect();
         let omega: Vec<f64> = rigid.iter().map(|r| r[2]).collect();
-        let next = correct(&self.cur, &u, &omega, self.dt, self.prev.is_none());
+        let next = correct(&self.cur, &u, &omega, self.dt(), self.prev.is_none());
         if !finite(&next) {
             return Err(MovingError::NonFinite { step });
         }
@@ -432,7 +459,7 @@ impl<D: Confinement + Clone + 'static> MovingParticles<D> {
         t_end: f64,
         mut observe: impl FnMut(&Self, &StepReport) -> bool,
     ) -> Result<MovingEnd, MovingError> {
-        let n_steps = step_count(t_end, self.dt);
+        let n_steps = step_count(t_end, self.dt());
         while self.flow.history().steps() < n_steps {
             let rep = match self.step()? {
                 StepOutcome::Stepped(rep) => rep,

@@ -81,8 +81,24 @@ pub struct RunningCase {
     pub t_end: Option<f64>,
     /// Time of the last stored sample.
     pub t_stored: Option<f64>,
+    /// Δt per step between the last two stored samples (the step an adaptive case takes now).
+    pub dt_recent: Option<f64>,
     /// Whether its process is alive (`None`: another host, cannot tell).
     pub alive: Option<bool>,
+}
+
+/// Δt per step between the last two stored samples of a case (`None` with fewer than two).
+fn recent_dt(conn: &rusqlite::Connection, case_id: i64) -> rusqlite::Result<Option<f64>> {
+    let mut st = conn.prepare_cached(
+        "SELECT DISTINCT step, t FROM samples WHERE case_id = ?1 ORDER BY step DESC LIMIT 2",
+    )?;
+    let last: Vec<(i64, f64)> = st
+        .query_map([case_id], |r| Ok((r.get(0)?, r.get(1)?)))?
+        .collect::<rusqlite::Result<_>>()?;
+    Ok(match last[..] {
+        [(s1, t1), (s0, t0)] if s1 > s0 => Some((t1 - t0) / (s1 - s0) as f64),
+        _ => None,
+    })
 }
 
 /// Sample rows of a case up to and including `step`.
@@ -230,7 +246,7 @@ impl Store {
                         s.r0_star(),
                         s.eps(),
                         format!("{}x{}", s.numerics.mesh[0], s.numerics.mesh[1]),
-                        s.numerics.dt,
+                        s.numerics.dt.initial(),
                         s.numerics.t_end
                     ])
                     .map_err(|source| super::StoreError::Sql {
@@ -458,7 +474,7 @@ impl Store {
             .conn
             .prepare(
                 "SELECT s.name, c.case_hash, c.label, c.t_end, c.owner, c.owner_pid,
-                        (SELECT MAX(t) FROM samples WHERE case_id = c.id)
+                        (SELECT MAX(t) FROM samples WHERE case_id = c.id), c.id
                  FROM cases c JOIN sweeps s ON s.id = c.sweep_id
                  WHERE c.status = 'running' ORDER BY s.name, c.id",
             )
@@ -472,6 +488,7 @@ impl Store {
                     label: r.get(2)?,
                     t_end: r.get(3)?,
                     t_stored: r.get(6)?,
+                    dt_recent: recent_dt(&self.conn, r.get(7)?)?,
                     alive: owner_alive(owner.as_deref(), r.get(5)?, &host),
                 })
             })

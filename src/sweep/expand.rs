@@ -354,7 +354,7 @@ mod tests {
         assert_eq!(cases[0].label, "wi=1 n=2 dt=0.01 t_end=1");
         assert_eq!(cases[11].label, "wi=3 n=3 dt=0.02 t_end=2");
         assert_eq!(cases[11].spec.n_particles(), 3);
-        assert_eq!(cases[11].spec.numerics.dt, 0.02);
+        assert_eq!(cases[11].spec.numerics.dt.initial(), 0.02);
     }
 
     #[test]

@@ -56,6 +56,10 @@ pub struct CaseProgress {
     t_end: f64,
     started: Instant,
     last_draw: Instant,
+    /// Time of the last update and the step that led to it (Δt, shown: it varies with an
+    /// adaptive step).
+    last_t: Option<f64>,
+    dt: f64,
 }
 
 impl Progress {
@@ -117,6 +121,8 @@ impl Progress {
             t_end,
             started: now,
             last_draw: now,
+            last_t: None,
+            dt: 0.0,
         }
     }
 
@@ -158,6 +164,9 @@ impl CaseProgress {
 
     /// Simulated time `t` reached after `step` steps.
     pub fn update(&mut self, t: f64, step: u64) {
+        if let Some(last) = self.last_t.replace(t) {
+            self.dt = t - last;
+        }
         let Some(bar) = &self.bar else { return };
         if self.last_draw.elapsed() < REDRAW_INTERVAL {
             return;
@@ -166,8 +175,8 @@ impl CaseProgress {
         let rate = step as f64 / self.started.elapsed().as_secs_f64().max(1e-9);
         bar.set_position(((t / self.t_end).clamp(0.0, 1.0) * CASE_BAR_LEN as f64) as u64);
         bar.set_message(format!(
-            "{} t={t:.3}/{} {rate:.1} steps/s",
-            self.label, self.t_end
+            "{} t={t:.3}/{} Δt={:.4} {rate:.1} steps/s",
+            self.label, self.t_end, self.dt
         ));
     }
 }

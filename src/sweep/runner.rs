@@ -85,7 +85,7 @@ impl CaseRunner for FakeRunner {
             }
             _ => OutcomeKind::Timeout,
         };
-        let dt = case.numerics.dt;
+        let dt = case.numerics.dt.initial();
         let steps = (case.numerics.t_end / dt).round() as u64;
         let mut t = 0.0;
         // a saved state is the step it was saved after: the trajectory is a function of the step

@@ -5,6 +5,7 @@ pub mod moving;
 pub mod near_contact;
 pub mod particles;
 pub mod stokes;
+pub mod variable_steps;
 pub mod viscoelastic;
 pub mod xstokes;
 

@@ -22,7 +22,7 @@ use crate::xfem::CutOptions;
 pub const MIN_TIME_RATE: f64 = 1.8;
 
 /// Relaxation time of the §5.4 fluid (the study covers 0 ≤ t ≤ λ).
-const LAMBDA: f64 = 0.5;
+pub(crate) const LAMBDA: f64 = 0.5;
 
 /// The frame in which the translating cylinder is computed.
 #[derive(Debug, Clone, Copy, PartialEq, Eq)]
@@ -51,20 +51,19 @@ pub enum CylinderStress {
     },
 }
 
-/// K(t) of the translating cylinder of thesis §5.4 with element size `h` around the cylinder's
-/// path and time step `dt`, up to t = λ, computed in `frame` with `stress`: pairs (t, K).
+/// The translating cylinder of [`translating_cylinder`] set up with first step `dt` (the
+/// variable-step study sets each step's Δt itself).
 ///
 /// # Errors
-/// [`MovingError`] if a step fails or the cylinder touches a wall (it cannot: it moves along
-/// the centreline).
-pub fn translating_cylinder(
+/// [`MovingError`] if the geometry or the first solve fails.
+pub fn cylinder_run(
     h: f64,
     dt: f64,
     cut: CutOptions,
     remap: Remap,
     frame: Frame,
     stress: CylinderStress,
-) -> Result<Vec<(f64, f64)>, MovingError> {
+) -> Result<MovingParticles<ConfinedShear>, MovingError> {
     // the cylinder's velocity and the walls' in the chosen frame
     let (velocity, drift) = match frame {
         Frame::Channel => ([1.0, 0.0], 0.0),
@@ -109,6 +108,24 @@ pub fn translating_cylinder(
         cut,
     )?;
     sim.set_remap(remap);
+    Ok(sim)
+}
+
+/// K(t) of the translating cylinder of thesis §5.4 with element size `h` around the cylinder's
+/// path and time step `dt`, up to t = λ, computed in `frame` with `stress`: pairs (t, K).
+///
+/// # Errors
+/// [`MovingError`] if a step fails or the cylinder touches a wall (it cannot: it moves along
+/// the centreline).
+pub fn translating_cylinder(
+    h: f64,
+    dt: f64,
+    cut: CutOptions,
+    remap: Remap,
+    frame: Frame,
+    stress: CylinderStress,
+) -> Result<Vec<(f64, f64)>, MovingError> {
+    let mut sim = cylinder_run(h, dt, cut, remap, frame, stress)?;
     let mut k = vec![(0.0, 0.0)];
     // the output times kΔt ≤ λ (Δt = 0.04 does not divide λ = 0.5)
     let t_end = dt * (LAMBDA / dt + 1e-9).floor();
@@ -249,7 +266,7 @@ pub fn relative_l2_difference(a: &[(f64, f64)], b: &[(f64, f64)]) -> f64 {
 }
 
 /// Least-squares slope through points (x, y).
-fn fitted_slope(p: &[(f64, f64)]) -> f64 {
+pub(crate) fn fitted_slope(p: &[(f64, f64)]) -> f64 {
     let n = p.len() as f64;
     let (mx, my) = (
         p.iter().map(|q| q.0).sum::<f64>() / n,

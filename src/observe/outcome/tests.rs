@@ -31,9 +31,9 @@ fn couette() -> CaseSpec {
 /// Runs the classifier over a synthetic trajectory up to the case's end time.
 fn classify(kind: OutcomeKind, spec: &CaseSpec) -> Outcome {
     let mut c = Classifier::new(spec);
-    let steps = (spec.numerics.t_end / spec.numerics.dt).round() as u64;
+    let steps = (spec.numerics.t_end / spec.numerics.dt.initial()).round() as u64;
     for step in 1..=steps {
-        let t = step as f64 * spec.numerics.dt;
+        let t = step as f64 * spec.numerics.dt.initial();
         if c.push(&synthetic::sample(kind, spec, step, t)).is_some() {
             break;
         }

@@ -12,7 +12,8 @@
 //!   reference ξ with X_E(ξ) + d(E, ξ) = x, Newton) and its pre-image is Φₙ⁻¹(x) = X_E(ξ) on the
 //!   fixed mesh, where sⁿ is interpolated (Eq. 5.42); repeating with the previous displacement
 //!   gives xⁿ⁻¹ and s^{n−1} (Eq. 5.43).
-//! - Mesh velocity at the Q2 nodes by BDF2 (Eq. 5.44), first order on the first step.
+//! - Mesh velocity at the Q2 nodes by BDF2 (Eq. 5.44; variable-step coefficients, `Bdf2`), first
+//!   order on the first step.
 //!
 //! Here: [`TemporaryAle`] and its step (pre-images, stencils and mesh velocity of all nodes); the
 //! displacement solve, the point location, the stencils and the extension into the particles
@@ -38,6 +39,7 @@ use stencil::stencil;
 use crate::fem::linsolve::{DirectSolver, SolveError};
 use crate::fem::sparse::{q1_pattern, SparseMatrix};
 use crate::mesh::{Axis, Mesh, Side};
+use crate::solver::bdf::Bdf2;
 
 /// A particle's move over one step.
 #[derive(Debug, Clone, Copy, PartialEq)]
@@ -189,8 +191,9 @@ impl TemporaryAle {
     }
 
     /// One step of the temporary ALE scheme: the displacement for `moves`, the pre-images of
-    /// all Q2 nodes in x_ALE^{n+1} (and, unless `first_order` or on the first call, in x_ALE^n),
-    /// the interpolation weights at the vertices and the mesh velocity (Eq. 5.44).
+    /// all Q2 nodes in x_ALE^{n+1} (and, unless `bdf` is Euler or on the first call, in x_ALE^n),
+    /// the interpolation weights at the vertices and the mesh velocity (Eq. 5.44, with the
+    /// variable-step coefficients of `bdf`).
     ///
     /// # Errors
     /// [`AleError`] if the solve fails or a pre-image is not found.
@@ -200,9 +203,9 @@ impl TemporaryAle {
         moves: &[RigidMove],
         period: Option<f64>,
         dt: f64,
-        first_order: bool,
+        bdf: Bdf2,
     ) -> Result<AleMap, AleError> {
-        self.advance_onto(mesh, mesh, moves, period, dt, first_order)
+        self.advance_onto(mesh, mesh, moves, period, dt, bdf)
     }
 
     /// [`advance`](Self::advance) onto a computational mesh `new` whose vertex columns and rows
@@ -224,7 +227,7 @@ impl TemporaryAle {
         moves: &[RigidMove],
         period: Option<f64>,
         dt: f64,
-        first_order: bool,
+        bdf: Bdf2,
     ) -> Result<AleMap, AleError> {
         assert!(
             old.dims() == new.dims() && old.periodic == new.periodic && old.shape == new.shape,
@@ -232,7 +235,7 @@ impl TemporaryAle {
         );
         let d_new = self.displacement(old, moves, period)?;
         let previous_axes = self.previous_axes.take();
-        let d_old = if first_order {
+        let d_old = if bdf.is_euler() {
             None
         } else {
             self.previous.take()
@@ -264,8 +267,8 @@ impl TemporaryAle {
                     }
                     let xnm1 = nearest_image(xnm1, xn, period);
                     [
-                        (1.5 * x[0] - 2.0 * xn[0] + 0.5 * xnm1[0]) / dt,
-                        (1.5 * x[1] - 2.0 * xn[1] + 0.5 * xnm1[1]) / dt,
+                        (bdf.c0 * x[0] - bdf.c1 * xn[0] + bdf.c2 * xnm1[0]) / dt,
+                        (bdf.c0 * x[1] - bdf.c1 * xn[1] + bdf.c2 * xnm1[1]) / dt,
                     ]
                 }
             };

@@ -1,6 +1,16 @@
 //! Unit tests of the temporary ALE map: displacement, pre-images, remaps, mesh velocity.
 
 use super::*;
+use crate::solver::bdf::Bdf2;
+
+/// Euler for a first step, else fixed-step BDF2.
+fn bdf_of(first: bool) -> Bdf2 {
+    if first {
+        Bdf2::EULER
+    } else {
+        Bdf2::with_ratio(1.0)
+    }
+}
 use crate::fem::element::q1;
 use crate::mesh::Axis;
 
@@ -38,7 +48,7 @@ fn no_motion_is_the_identity() {
             &one_move([0.1, 0.0], [0.0, 0.0]),
             Some(2.0),
             0.1,
-            true,
+            Bdf2::EULER,
         )
         .unwrap();
     assert!(m
@@ -100,7 +110,9 @@ fn pre_images_invert_the_ale_mesh_and_bilinear_fields_map_exactly() {
     let mut ale = TemporaryAle::new(&mesh);
     assert_eq!(ale.remap, Remap::Bilinear);
     let moves = one_move([0.97, 0.05], [0.02, 0.01]);
-    let m = ale.advance(&mesh, &moves, Some(2.0), 0.1, true).unwrap();
+    let m = ale
+        .advance(&mesh, &moves, Some(2.0), 0.1, Bdf2::EULER)
+        .unwrap();
     let d = &m.displacement;
     let f = |p: [f64; 2]| 0.3 + 2.0 * p[1] + 0.7 * p[1] * p[1].abs().min(0.0);
     let fv: Vec<f64> = mesh
@@ -135,7 +147,9 @@ fn pre_images_beyond_the_neighbouring_elements_are_found() {
         radius: 3.0 * h,
         displacement: [-1.7 * h, 0.2 * h],
     }];
-    let m = ale.advance(&mesh, &moves, Some(2.0), 0.1, true).unwrap();
+    let m = ale
+        .advance(&mesh, &moves, Some(2.0), 0.1, Bdf2::EULER)
+        .unwrap();
     let d = &m.displacement;
     for &k in &mesh.node_of_vertex {
         let x = mesh.nodes[k];
@@ -167,7 +181,9 @@ fn assert_remap_exact_on(mesh: Mesh, remap: Remap, f: &impl Fn([f64; 2]) -> f64)
     let mut ale = TemporaryAle::new(&mesh);
     ale.remap = remap;
     let moves = one_move([0.0, 0.05], [0.013, -0.007]);
-    let m = ale.advance(&mesh, &moves, Some(2.0), 0.1, true).unwrap();
+    let m = ale
+        .advance(&mesh, &moves, Some(2.0), 0.1, Bdf2::EULER)
+        .unwrap();
     let fv: Vec<f64> = mesh
         .node_of_vertex
         .iter()
@@ -223,7 +239,7 @@ fn a_mesh_moved_by_one_column_relabels_the_history_exactly() {
     ale.remap = Remap::Cubic;
     let still = one_move([0.0, 0.05], [0.0, 0.0]);
     let m = ale
-        .advance_onto(&old, &new, &still, Some(2.0), 0.1, true)
+        .advance_onto(&old, &new, &still, Some(2.0), 0.1, Bdf2::EULER)
         .unwrap();
     let (nx, _) = old.dims();
     for (v, (vs, w)) in m.at_n.iter().enumerate() {
@@ -291,7 +307,7 @@ fn pre_images_of_a_moved_mesh_are_interpolated_on_the_meshes_of_the_history() {
     // step 1: s⁰ on m0, onto m1
     let moves = one_move([0.0, 0.05], [0.013, -0.007]);
     let a = ale
-        .advance_onto(&m0, &m1, &moves, period, dt, true)
+        .advance_onto(&m0, &m1, &moves, period, dt, Bdf2::EULER)
         .unwrap();
     let mut checked = 0;
     for (v, &k) in m1.node_of_vertex.iter().enumerate() {
@@ -307,7 +323,7 @@ fn pre_images_of_a_moved_mesh_are_interpolated_on_the_meshes_of_the_history() {
     // step 2: s¹ on m1 (s⁰ on m0), onto m2; the particle moved on
     let moves = one_move([0.013, 0.043], [0.011, -0.006]);
     let b = ale
-        .advance_onto(&m1, &m2, &moves, period, dt, false)
+        .advance_onto(&m1, &m2, &moves, period, dt, Bdf2::with_ratio(1.0))
         .unwrap();
     let at_nm1 = b.at_n_minus_1.as_ref().expect("second-order step");
     for (v, &k) in m2.node_of_vertex.iter().enumerate() {
@@ -436,7 +452,7 @@ fn mesh_velocity_of_a_steadily_moving_particle() {
     let mut last = None;
     for first in [true, false, false] {
         last = Some(
-            ale.advance(&mesh, &one_move(c, step), Some(2.0), dt, first)
+            ale.advance(&mesh, &one_move(c, step), Some(2.0), dt, bdf_of(first))
                 .unwrap(),
         );
         c = [c[0] + step[0], c[1] + step[1]];

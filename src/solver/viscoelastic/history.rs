@@ -253,7 +253,7 @@ mod tests {
         };
         carry_history(&mut h, &mut unmapped, &first);
         assert!(h.previous.is_none());
-        h.push(field(n, 100.0));
+        h.push(field(n, 100.0), 0.1);
         // second move: s¹ at Φ₁⁻¹, s⁰ at Φ₀⁻¹∘Φ₁⁻¹ = a shift by 2 from s⁰ as solved
         let second = HistoryMap {
             at_n: &s1,
@@ -275,7 +275,7 @@ mod tests {
         let (s1, s2) = (shift(n, 1), shift(n, 2));
         let velocity = vec![[0.0; 2]; 1];
         let mut h = LogConformationHistory::from_field(field(n, 0.0));
-        h.push(field(n, 100.0));
+        h.push(field(n, 100.0), 0.1);
         let map = HistoryMap {
             at_n: &s1,
             at_n_minus_1: Some(&s2),

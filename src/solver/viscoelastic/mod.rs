@@ -16,16 +16,18 @@
 //!
 //! Parameters and errors are in `params`; the history carried onto moved particles or a moved
 //! mesh in `history`; the saved state and its restore in `state`; particle forces and stress
-//! read-outs in `forces`; flow-rate control in `flow_rate`.
+//! read-outs in `forces`; flow-rate control in `flow_rate`; what a step reports in `report`.
 
 mod flow_rate;
 mod forces;
 mod history;
 mod params;
+mod report;
 mod state;
 
 pub use history::HistoryMap;
 pub use params::{ViscoelasticError, ViscoelasticParams, STEADY_TOL};
+pub use report::{Deviation, RunSummary, StepReport, StepTimings};
 pub use state::FlowState;
 
 use std::time::Instant;
@@ -36,74 +38,13 @@ use crate::fem::linsolve::SolverKind;
 use crate::mesh::{Mesh, Side};
 use crate::rheology::{Fluid, Sym2};
 use crate::solver::constitutive::{
-    LogConformationHistory, LogConformationTransport, TransportFlow, TransportTimings,
+    LogConformationHistory, LogConformationTransport, TransportFlow,
 };
 use crate::solver::constitutive_projection::Q1Projection;
 use crate::solver::constitutive_stress::{Coupling, CouplingStress};
 use crate::solver::flow::{Stokes, StokesParams};
 use crate::solver::polymer_terms::PolymerStress;
 use crate::solver::rigid::{ElementCut, Particle, WeakForm};
-
-/// Wall-clock seconds of the phases of one step (the one timing record of a step: a step with
-/// moving particles fills in its ALE and classify phases too).
-#[derive(Debug, Clone, Copy, Default)]
-pub struct StepTimings {
-    /// Moving particles: following mesh, ALE displacement, point location, history mapping.
-    pub ale: f64,
-    /// Moving particles: level set and cut-cell quadrature at the predicted positions.
-    pub classify: f64,
-    /// Flow: assembly.
-    pub flow_assembly: f64,
-    /// Flow: symbolic analysis (first solve only, or after a pattern rebuild) and new placements
-    /// of the band solver (far-field factorization and condensation).
-    pub flow_symbolic: f64,
-    /// Flow: numeric factorization.
-    pub flow_factor: f64,
-    /// Flow: solve and residual check.
-    pub flow_solve: f64,
-    /// Q1 projection of G (decoupled DEVSS-G).
-    pub gradient_projection: f64,
-    /// Log-conformation transport.
-    pub transport: TransportTimings,
-    /// Q1 projection of exp(s).
-    pub conformation_projection: f64,
-    /// Whole step.
-    pub total: f64,
-}
-
-/// What one step did.
-#[derive(Debug, Clone, Copy)]
-pub struct StepReport {
-    /// Step number (1 = first step).
-    pub step: usize,
-    /// Time after the step.
-    pub time: f64,
-    /// max over the fluid's nodes and components of |u^{n+1} − uⁿ|.
-    pub du_max: f64,
-    /// max over the fluid's vertices and components of |s^{n+1} − sⁿ|.
-    pub ds_max: f64,
-    /// Q2 node where `du_max` is attained.
-    pub du_node: usize,
-    /// Q1 vertex where `ds_max` is attained.
-    pub ds_vertex: usize,
-    /// Both below the steady tolerance.
-    pub steady: bool,
-    /// Timings.
-    pub timings: StepTimings,
-}
-
-/// How a run ended.
-#[derive(Debug, Clone, Copy)]
-pub struct RunSummary {
-    /// Steps taken.
-    pub steps: usize,
-    /// Final time.
-    pub time: f64,
-    /// Whether the steady criterion was met (the run stops there when asked to).
-    pub steady: bool,
-    /// The last step's report.
-    pub last: Option<StepReport>,
-}
 
 /// A viscoelastic flow on a fixed mesh, stepped in time.
 pub struct ViscoelasticFlow {
@@ -193,6 +134,7 @@ impl ViscoelasticFlow {
         let (nv, nn) = (mesh.n_vertices(), mesh.n_nodes());
         let n_particles = particles.len();
         let mut transport = LogConformationTransport::new(&mesh);
+        transport.supg = params.supg;
         let mut projection = Q1Projection::new(&mesh);
         if n_particles > 0 {
             transport.set_cuts(&mesh, cuts.clone());
@@ -332,6 +274,7 @@ impl ViscoelasticFlow {
             conformation: &self.conformation,
             coupling: self.params.coupling,
             dt: self.params.dt,
+            bdf: self.history.bdf2(self.params.dt),
             mesh_velocity: self.mesh_velocity.as_deref(),
             devss: (!self.params.coupled_g && self.params.theta > 0.0)
                 .then_some((self.params.theta, self.gradient.as_slice())),
@@ -378,7 +321,7 @@ impl ViscoelasticFlow {
         let dt = self.params.dt;
         if !self.params.has_polymer() {
             // Stokes flow: s = 0 stays, only the step count advances
-            self.history.push_unchanged();
+            self.history.push_unchanged(dt);
             return Ok(self.finish_step(step, u, p, 0.0, 0.0, t_step));
         }
         // 2. project_gradient
@@ -467,7 +410,7 @@ impl ViscoelasticFlow {
         };
         self.velocity = u;
         self.pressure = p;
-        self.time = step as f64 * self.params.dt;
+        self.time += self.params.dt;
         let tol = self.params.steady_tol;
         StepReport {
             step,
@@ -477,6 +420,7 @@ impl ViscoelasticFlow {
             du_node,
             ds_vertex,
             steady: du_max < tol && ds_max < tol,
+            deviation: None,
             timings: StepTimings {
                 ale: 0.0,
                 classify: 0.0,
@@ -529,6 +473,16 @@ impl ViscoelasticFlow {
     /// The fluid.
     pub fn fluid(&self) -> Fluid {
         self.fluid
+    }
+
+    /// Sets Δt of the coming steps (variable steps: the BDF2 coefficients and the
+    /// extrapolations follow the ratio to the last step, [`LogConformationHistory::bdf2`]).
+    ///
+    /// # Panics
+    /// If `dt` is not positive and finite (the step controller never proposes such a step).
+    pub fn set_dt(&mut self, dt: f64) {
+        assert!(dt > 0.0 && dt.is_finite(), "set_dt: Δt = {dt}");
+        self.params.dt = dt;
     }
 
     /// The parameters.

@@ -3,7 +3,7 @@
 use crate::fem::linsolve::SolveError;
 use crate::fem::substructure::Factorization;
 use crate::rheology::{Fluid, RheologyError};
-use crate::solver::constitutive::ConstitutiveError;
+use crate::solver::constitutive::{ConstitutiveError, SupgVelocity};
 use crate::solver::constitutive_stress::Coupling;
 use crate::solver::rigid::WeakForm;
 
@@ -40,6 +40,9 @@ pub struct ViscoelasticParams {
     /// How the flow matrix is factored when it changed (the particles moved):
     /// [`Factorization::Band`] (default) or the whole matrix every step.
     pub factorization: Factorization,
+    /// The SUPG parameter of the stress transport (default Case 1 at the step's Δt;
+    /// [`SupgVelocity::LocalAt`] for variable steps).
+    pub supg: SupgVelocity,
 }
 
 impl ViscoelasticParams {
@@ -70,6 +73,7 @@ impl ViscoelasticParams {
             steady_tol: STEADY_TOL,
             rigid_form: WeakForm::Symmetric,
             factorization: Factorization::Band,
+            supg: SupgVelocity::Local,
         }
     }
 
