@@ -198,11 +198,26 @@ impl Store {
 
     /// Wraps an SQLite error with this database's path (owns a copy of the path, so it can be held
     /// across mutable uses of the connection).
+    /// An error of a file deleted or replaced under the connection (SQLite reports a disk I/O
+    /// error when its file is gone mid-write) is [`StoreError::Vanished`].
     pub(crate) fn sql_err(&self) -> impl Fn(rusqlite::Error) -> StoreError {
-        let path = self.path.clone();
-        move |source| StoreError::Sql {
-            path: path.clone(),
-            source,
+        let (path, opened) = (self.path.clone(), self.identity);
+        move |source| {
+            let gone = opened.and_then(|opened| match open::identity(&path) {
+                None => Some("the file is gone"),
+                Some(now) if now != opened => Some("another file is at its path now"),
+                Some(_) => None,
+            });
+            match gone {
+                Some(what) => StoreError::Vanished {
+                    path: path.clone(),
+                    what: format!("{what}; SQLite: {source}"),
+                },
+                None => StoreError::Sql {
+                    path: path.clone(),
+                    source,
+                },
+            }
         }
     }
 

@@ -11,7 +11,7 @@ use rusqlite::{Connection, OpenFlags};
 use super::{is_busy, retry_busy, schema, Result, Store, StoreError, BUSY_TIMEOUT};
 
 /// Device and inode of a file (what tells a file from a new one at the same path).
-fn identity(path: &Path) -> Option<(u64, u64)> {
+pub(super) fn identity(path: &Path) -> Option<(u64, u64)> {
     use std::os::unix::fs::MetadataExt;
     std::fs::metadata(path).ok().map(|m| (m.dev(), m.ino()))
 }

@@ -280,6 +280,15 @@ fn label_value(v: &Value, digits: usize) -> String {
                 .collect::<Vec<_>>()
                 .join(",")
         ),
+        // a table (e.g. an adaptive step { initial, min, max, tol }): its fields, compactly
+        Value::Object(fields) => format!(
+            "{{{}}}",
+            fields
+                .iter()
+                .map(|(k, x)| format!("{k}={}", label_value(x, digits)))
+                .collect::<Vec<_>>()
+                .join(",")
+        ),
         other => other.to_string(),
     }
 }
