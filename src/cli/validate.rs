@@ -331,12 +331,19 @@ fn print_frame_runs(
     ok
 }
 
-/// Element sizes of `xpflow validate cylinder` without `--h`: the Newtonian study's sequence, or
+/// Element sizes of `xpflow validate` without `--h` (none for the translating-cylinder studies,
+/// which have their own default): for `cylinder` the Newtonian study's sequence, or
 /// for Wi > 0 the coarsest mesh that meets the tolerance in about a minute (measured:
 /// Wi = 0.3 h = 0.1 +6.7e-4 of the 0.1 %; Wi = 0.6 h = 0.1 +2.3e-3 misses the 0.2 %, h = 0.07
 /// see docs/validation.md).
 pub(super) fn default_meshes(study: Study, wi: f64) -> Vec<f64> {
-    if study == Study::NearContact {
+    if matches!(
+        study,
+        Study::TranslatingCylinder | Study::ExplicitCoupling | Study::VariableSteps
+    ) {
+        // each has its own default element size (`hs.first()` or it)
+        Vec::new()
+    } else if study == Study::NearContact {
         vec![0.2, 0.1, 0.05]
     } else if wi == 0.0 {
         vec![0.1, 0.05, 0.03]

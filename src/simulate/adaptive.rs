@@ -35,8 +35,9 @@ use crate::solver::viscoelastic::Deviation;
 
 /// What `xpflow run --resolved` prints for the controller.
 pub const DESCRIPTION: &str = "PI controller on the particles' deviation from their extrapolation \
-     (positions and angles in radii, velocities in radii per 1/γ̇) over tol, step ratio in [0.5, 2], \
-     at most half an element of particle motion per step, rejected steps redone";
+     (positions and angles in radii over tol, velocities in radii per 1/γ̇ over 10 tol); a proposal \
+     within [0.8, 1.25] of the step keeps it, otherwise 0.5-2 times it; at most half an element of \
+     particle motion per step; rejected steps redone; SUPG τ at the initial Δt";
 
 /// Smallest ratio of one step to the last (a rejection or a fast transient).
 pub const MIN_RATIO: f64 = 0.5;

@@ -250,7 +250,8 @@ impl Settings {
                     .adaptive()
                     .map(|_| super::adaptive::DESCRIPTION.to_string()),
                 scheme: if polymer {
-                    "BDF2 (Euler first step), predictor-corrector particles"
+                    "BDF2 (Euler first step; variable-step coefficients with an adaptive Δt), \
+                     predictor-corrector particles"
                 } else {
                     "quasi-static Stokes, predictor-corrector particles"
                 },
