@@ -43,14 +43,6 @@ impl TimeStep {
         }
     }
 
-    /// The largest step the case can take.
-    pub fn max(&self) -> f64 {
-        match self {
-            TimeStep::Fixed(dt) => *dt,
-            TimeStep::Adaptive(a) => a.max,
-        }
-    }
-
     /// The controller's settings, for an adaptive step.
     pub fn adaptive(&self) -> Option<AdaptiveStep> {
         match self {
@@ -97,25 +89,6 @@ impl TimeStep {
             ));
         }
         Ok(())
-    }
-}
-
-impl From<f64> for TimeStep {
-    fn from(dt: f64) -> Self {
-        TimeStep::Fixed(dt)
-    }
-}
-
-impl std::fmt::Display for TimeStep {
-    fn fmt(&self, f: &mut std::fmt::Formatter<'_>) -> std::fmt::Result {
-        match self {
-            TimeStep::Fixed(dt) => write!(f, "{dt}"),
-            TimeStep::Adaptive(a) => write!(
-                f,
-                "adaptive (initial {}, min {}, max {}, tol {})",
-                a.initial, a.min, a.max, a.tol
-            ),
-        }
     }
 }
 

@@ -27,66 +27,58 @@ impl RigidState {
     }
 }
 
-/// Predicted centres X̂ⁿ⁺¹ = Xⁿ + ω(Xⁿ − Xⁿ⁻¹) for the step ratio ω = Δtₙ/Δtₙ₋₁ (Eq. 5.45:
-/// 2Xⁿ − Xⁿ⁻¹ for ω = 1), or Xⁿ at the first step (Eq. 5.47).
-pub fn predict(prev: Option<&RigidState>, cur: &RigidState, ratio: f64) -> Vec<[f64; 2]> {
-    match prev {
-        None => cur.x.clone(),
-        Some(p) => cur
-            .x
-            .iter()
-            .zip(&p.x)
-            .map(|(c, q)| {
-                if ratio == 1.0 {
-                    [2.0 * c[0] - q[0], 2.0 * c[1] - q[1]]
-                } else {
-                    [c[0] + ratio * (c[0] - q[0]), c[1] + ratio * (c[1] - q[1])]
-                }
-            })
-            .collect(),
+/// Yⁿ + ω(Yⁿ − Yⁿ⁻¹), written 2Yⁿ − Yⁿ⁻¹ for ω = 1 (Eq. 5.45, bit for bit as with fixed steps).
+fn extrapolated(c: f64, q: f64, ratio: f64) -> f64 {
+    if ratio == 1.0 {
+        2.0 * c - q
+    } else {
+        c + ratio * (c - q)
     }
 }
 
-/// The whole state extrapolated to tⁿ⁺¹, Ŷ = Yⁿ + ω(Yⁿ − Yⁿ⁻¹) for Y = X, Θ, U, ω (as
-/// [`predict`]; `None` at the first step): the step controller compares the corrected state
-/// with it.
+/// The state extrapolated to tⁿ⁺¹, Ŷ = Yⁿ + ω(Yⁿ − Yⁿ⁻¹) for Y = X, Θ, U, ω and the step ratio
+/// ω = Δtₙ/Δtₙ₋₁ (`None` at the first step, whose predictor is Xⁿ, Eq. 5.47): its centres are the
+/// predictor X̂ⁿ⁺¹ of Eq. 5.45, the whole state what the step controller compares the corrected
+/// one with.
 pub fn extrapolate(prev: Option<&RigidState>, cur: &RigidState, ratio: f64) -> Option<RigidState> {
     let p = prev?;
-    let e = |c: f64, q: f64| c + ratio * (c - q);
+    let e = |c: f64, q: f64| extrapolated(c, q, ratio);
     let e2 = |c: &[f64; 2], q: &[f64; 2]| [e(c[0], q[0]), e(c[1], q[1])];
+    let scalars = |c: &[f64], q: &[f64]| c.iter().zip(q).map(|(&c, &q)| e(c, q)).collect();
     Some(RigidState {
         x: cur.x.iter().zip(&p.x).map(|(c, q)| e2(c, q)).collect(),
-        theta: cur
-            .theta
-            .iter()
-            .zip(&p.theta)
-            .map(|(&c, &q)| e(c, q))
-            .collect(),
+        theta: scalars(&cur.theta, &p.theta),
         u: cur.u.iter().zip(&p.u).map(|(c, q)| e2(c, q)).collect(),
-        omega: cur
-            .omega
-            .iter()
-            .zip(&p.omega)
-            .map(|(&c, &q)| e(c, q))
-            .collect(),
+        omega: scalars(&cur.omega, &p.omega),
     })
 }
 
-/// How far `state` is from the `expected` (extrapolated) one, max over particles of radius
-/// `radius`: (|ΔX| and a|ΔΘ| in radii, |ΔU| and a|Δω| in radii per unit time).
-pub fn deviation(state: &RigidState, expected: &RigidState, radius: &[f64]) -> (f64, f64) {
-    let (mut position, mut velocity) = (0.0f64, 0.0f64);
+/// How far the particles of a step are from their extrapolation (max over particles; each
+/// ≈ ½(1+ω)Δt²|Ÿ| for smooth motion): the step controller's error estimate.
+#[derive(Debug, Clone, Copy, Default, PartialEq)]
+pub struct Deviation {
+    /// |Xⁿ⁺¹ − X̂| and a|Θⁿ⁺¹ − Θ̂|, in radii a.
+    pub position: f64,
+    /// |Uⁿ⁺¹ − Û| and a|ωⁿ⁺¹ − ω̂|, in radii a per unit time.
+    pub velocity: f64,
+}
+
+/// How far `state` is from the `expected` (extrapolated) one, for particles of radius `radius`.
+pub fn deviation(state: &RigidState, expected: &RigidState, radius: &[f64]) -> Deviation {
+    let mut d = Deviation::default();
     for (i, &a) in radius.iter().enumerate() {
         let dx = (state.x[i][0] - expected.x[i][0]).hypot(state.x[i][1] - expected.x[i][1]);
         let du = (state.u[i][0] - expected.u[i][0]).hypot(state.u[i][1] - expected.u[i][1]);
-        position = position
+        d.position = d
+            .position
             .max(dx / a)
             .max((state.theta[i] - expected.theta[i]).abs());
-        velocity = velocity
+        d.velocity = d
+            .velocity
             .max(du / a)
             .max((state.omega[i] - expected.omega[i]).abs());
     }
-    (position, velocity)
+    d
 }
 
 /// Corrected state: trapezoidal rule Xⁿ⁺¹ = Xⁿ + ½(Uⁿ⁺¹ + Uⁿ)Δt (Eqs. 5.54–5.55), or explicit
@@ -227,7 +219,6 @@ mod tests {
         let mut cur = RigidState::at_rest(vec![[0.0, 0.0]]);
         for n in 0..10 {
             let t1 = (n + 1) as f64 * dt;
-            let _pred = predict(prev.as_ref(), &cur, 1.0);
             let next = correct(&cur, &[[a * t1, 0.0]], &[0.0], dt, false);
             prev = Some(cur);
             cur = next;

@@ -18,7 +18,7 @@
 //!
 //! The next step comes from a PI controller for an estimate of order 2 (Gustafsson; Hairer &
 //! Wanner §IV.2), Δtₙ₊₁ = Δtₙ · SAFETY · e⁻⁰·³⁵ · (eₙ₋₁/eₙ)⁰·², its ratio to Δtₙ kept in
-//! [`MIN_RATIO`, `MAX_RATIO`] (variable-step BDF2 is zero-stable below 1 + √2), within
+//! [`MIN_RATIO`, `MAX_RATIO`] (variable-step BDF2 is zero-stable for ratios below 1 + √2), within
 //! [min, max] and below the step in which a particle would cross [`MOTION_ELEMENTS_PER_STEP`]
 //! (a proposal within [`KEEP_BAND`] of the step keeps it: Δt changes in jumps, not by drift)
 //! elements of the mesh. A step with e > 1 is rejected and redone from the saved state with a
@@ -31,7 +31,7 @@
 use serde::{Deserialize, Serialize};
 
 use crate::config::{AdaptiveStep, MAX_ELEMENTS_PER_STEP};
-use crate::solver::viscoelastic::Deviation;
+use crate::particles::Deviation;
 
 /// What `xpflow run --resolved` prints for the controller.
 pub const DESCRIPTION: &str = "PI controller on the particles' deviation from their extrapolation \
@@ -90,9 +90,6 @@ pub struct StepController {
     dt: f64,
     /// The error of the last accepted step.
     last_error: Option<f64>,
-    /// Steps accepted and rejected so far.
-    accepted: u64,
-    rejected: u64,
 }
 
 impl StepController {
@@ -104,8 +101,6 @@ impl StepController {
             rate,
             dt: spec.initial,
             last_error: None,
-            accepted: 0,
-            rejected: 0,
         }
     }
 
@@ -123,21 +118,14 @@ impl StepController {
         })
     }
 
-    /// Steps accepted and rejected so far.
-    pub fn counts(&self) -> (u64, u64) {
-        (self.accepted, self.rejected)
-    }
-
     /// Judges a step of size `taken` with scaled error `error` (≤ 1 meets the tolerance; `None`:
     /// no estimate, a first step) and sets the next Δt, at most `limit` (the particles' motion).
     pub fn judge(&mut self, taken: f64, error: Option<f64>, limit: f64) -> Verdict {
         let Some(e) = error.map(|e| e.max(ERROR_FLOOR)) else {
-            self.accepted += 1;
             self.dt = self.bounded(taken, taken, limit);
             return Verdict::Accept;
         };
         if e > 1.0 && taken > self.spec.min {
-            self.rejected += 1;
             let factor = (SAFETY * e.powf(-0.5)).clamp(MIN_RATIO, 1.0);
             self.dt = (taken * factor).max(self.spec.min);
             return Verdict::Reject;
@@ -147,7 +135,6 @@ impl StepController {
         if (KEEP_BAND.0..KEEP_BAND.1).contains(&factor) {
             factor = 1.0;
         }
-        self.accepted += 1;
         self.last_error = Some(e);
         self.dt = self.bounded(taken * factor, taken, limit);
         Verdict::Accept
@@ -159,7 +146,6 @@ impl StepController {
         if taken <= self.spec.min {
             return false;
         }
-        self.rejected += 1;
         self.dt = (MIN_RATIO * taken).max(self.spec.min);
         true
     }
@@ -221,7 +207,6 @@ mod tests {
             Verdict::Accept,
             "at min a step is taken whatever its error"
         );
-        assert_eq!(c.counts(), (2, 2));
     }
 
     #[test]

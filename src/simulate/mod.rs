@@ -205,11 +205,6 @@ impl Simulation {
             .map_or(self.stepper.dt(), StepController::dt)
     }
 
-    /// The step controller of an adaptive step.
-    pub fn controller(&self) -> Option<&StepController> {
-        self.control.as_ref()
-    }
-
     /// Steps taken.
     pub fn steps(&self) -> u64 {
         self.stepper.flow().history().steps() as u64

@@ -25,9 +25,6 @@ pub struct Bdf2 {
 }
 
 impl Bdf2 {
-    /// Largest step ratio ω = Δtₙ/Δtₙ₋₁ for which variable-step BDF2 is zero-stable (1 + √2).
-    pub const MAX_RATIO: f64 = 1.0 + std::f64::consts::SQRT_2;
-
     /// Backward Euler: the first step, which has no earlier level.
     pub const EULER: Bdf2 = Bdf2 {
         c0: 1.0,

@@ -17,15 +17,13 @@ use std::time::Instant;
 pub use crate::geometry::Confinement;
 pub use crate::mesh::follow::FollowingMesh;
 use crate::mesh::{Axis, Mesh, Side};
-use crate::particles::{
-    correct, deviation, extrapolate, predict, Contact, RigidState, CONTACT_OVERLAP,
-};
+use crate::particles::{correct, deviation, extrapolate, Contact, RigidState, CONTACT_OVERLAP};
 use crate::solver::ale::{AleError, AleMap, Remap, RigidMove, TemporaryAle};
 use crate::solver::cutcells::{compute_cuts, CutError};
 use crate::solver::rigid::{ElementCut, Motion, Particle};
 use crate::solver::viscoelastic::{
-    Deviation, FlowSolution, FlowState, HistoryMap, StepReport, ViscoelasticError,
-    ViscoelasticFlow, ViscoelasticParams,
+    FlowSolution, FlowState, HistoryMap, StepReport, ViscoelasticError, ViscoelasticFlow,
+    ViscoelasticParams,
 };
 use crate::xfem::CutOptions;
 
@@ -290,8 +288,7 @@ impl<D: Confinement + Clone + 'static> MovingParticles<D> {
     pub fn step(&mut self) -> Result<StepOutcome, MovingError> {
         let t_step = Instant::now();
         let step = self.flow.history().steps() + 1;
-        let expected = extrapolate(self.prev.as_ref(), &self.cur, self.step_ratio());
-        let x_pred = self.predict();
+        let (expected, x_pred) = self.predict();
         if let Some(c) = self.domain.contact(&x_pred, &self.radius, self.min_gap()) {
             return Ok(StepOutcome::Contact(c));
         }
@@ -314,10 +311,7 @@ impl<D: Confinement + Clone + 'static> MovingParticles<D> {
         let solution = self.solve_flow()?;
         let mut report = self.solve_stress(solution)?;
         self.correct(x_pred, step)?;
-        report.deviation = expected.map(|e| {
-            let (position, velocity) = deviation(&self.cur, &e, &self.radius);
-            Deviation { position, velocity }
-        });
+        report.deviation = expected.map(|e| deviation(&self.cur, &e, &self.radius));
         report.timings.ale = ale;
         report.timings.classify = classify;
         report.timings.total = t_step.elapsed().as_secs_f64();
@@ -327,10 +321,14 @@ impl<D: Confinement + Clone + 'static> MovingParticles<D> {
         })
     }
 
-    /// Step 1, predict: X̂ⁿ⁺¹ = Xⁿ + ω(Xⁿ − Xⁿ⁻¹), ω = Δtₙ/Δtₙ₋₁ (Eqs. 5.45–5.47 for ω = 1;
-    /// Xⁿ before the first step).
-    fn predict(&self) -> Vec<[f64; 2]> {
-        predict(self.prev.as_ref(), &self.cur, self.step_ratio())
+    /// Step 1, predict: the state extrapolated to tⁿ⁺¹ (`None` before the first step) and its
+    /// centres X̂ⁿ⁺¹ = Xⁿ + ω(Xⁿ − Xⁿ⁻¹), ω = Δtₙ/Δtₙ₋₁ (Eqs. 5.45–5.47; Xⁿ at the first step).
+    fn predict(&self) -> (Option<RigidState>, Vec<[f64; 2]>) {
+        let expected = extrapolate(self.prev.as_ref(), &self.cur, self.step_ratio());
+        let x = expected
+            .as_ref()
+            .map_or_else(|| self.cur.x.clone(), |e| e.x.clone());
+        (expected, x)
     }
 
     /// ω = Δtₙ/Δtₙ₋₁ of the coming step (1 before the first step or when the last is unknown).

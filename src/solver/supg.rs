@@ -56,3 +56,23 @@ impl SupgVelocity {
         }
     }
 }
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    /// With variable steps τ stays that of the fixed Δt on both sides of the Courant switch, so
+    /// the discrete steady state does not follow the step.
+    #[test]
+    fn tau_at_a_fixed_step_ignores_the_step_taken() {
+        let at = SupgVelocity::LocalAt(0.02);
+        for (speed, h) in [(0.1, 0.05), (5.0, 0.05), (0.0, 0.05)] {
+            let fixed = supg_tau(speed, h, 0.02);
+            for dt in [0.005, 0.02, 0.08] {
+                assert_eq!(at.tau(speed, h, dt), fixed, "speed {speed}, Δt {dt}");
+            }
+        }
+        // Case 1 follows the step below the switch: 0.1 · 0.08 < 0.05
+        assert_eq!(SupgVelocity::Local.tau(0.1, 0.05, 0.08), 0.04);
+    }
+}

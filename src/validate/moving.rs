@@ -11,7 +11,7 @@ use crate::geometry::ConfinedShear;
 use crate::mesh::{Axis, Mesh};
 use crate::solver::ale::Remap;
 use crate::solver::constitutive_stress::Coupling;
-use crate::solver::moving::{MovingEnd, MovingError, MovingParticles};
+use crate::solver::moving::{MovingError, MovingParticles, StepOutcome};
 use crate::solver::rigid::{Motion, WeakForm};
 use crate::solver::viscoelastic::ViscoelasticParams;
 use crate::xfem::CutOptions;
@@ -51,12 +51,11 @@ pub enum CylinderStress {
     },
 }
 
-/// The translating cylinder of [`translating_cylinder`] set up with first step `dt` (the
-/// variable-step study sets each step's Δt itself).
+/// The translating cylinder of [`translating_cylinder`] set up with first step `dt`.
 ///
 /// # Errors
 /// [`MovingError`] if the geometry or the first solve fails.
-pub fn cylinder_run(
+fn cylinder_run(
     h: f64,
     dt: f64,
     cut: CutOptions,
@@ -125,16 +124,32 @@ pub fn translating_cylinder(
     frame: Frame,
     stress: CylinderStress,
 ) -> Result<Vec<(f64, f64)>, MovingError> {
-    let mut sim = cylinder_run(h, dt, cut, remap, frame, stress)?;
-    let mut k = vec![(0.0, 0.0)];
     // the output times kΔt ≤ λ (Δt = 0.04 does not divide λ = 0.5)
-    let t_end = dt * (LAMBDA / dt + 1e-9).floor();
-    let end = sim.run(t_end, |s, _| {
-        k.push((s.time(), s.flow().polymer_forces()[0][0]));
-        true
-    })?;
-    if let MovingEnd::Contact(c) = end {
-        return Err(MovingError::Setup(format!("translating cylinder: {c}")));
+    let steps = vec![dt; (LAMBDA / dt + 1e-9).floor() as usize];
+    translating_cylinder_steps(h, &steps, cut, remap, frame, stress)
+}
+
+/// K(t) of the translating cylinder stepped with `steps` (Δt of each step, from t = 0): pairs
+/// (t, K) at t = 0 and after each step.
+///
+/// # Errors
+/// [`MovingError`] if a step fails or the cylinder touches a wall.
+pub fn translating_cylinder_steps(
+    h: f64,
+    steps: &[f64],
+    cut: CutOptions,
+    remap: Remap,
+    frame: Frame,
+    stress: CylinderStress,
+) -> Result<Vec<(f64, f64)>, MovingError> {
+    let mut sim = cylinder_run(h, steps[0], cut, remap, frame, stress)?;
+    let mut k = vec![(0.0, 0.0)];
+    for &dt in steps {
+        sim.set_dt(dt);
+        if let StepOutcome::Contact(c) | StepOutcome::ContactAfter(_, c) = sim.step()? {
+            return Err(MovingError::Setup(format!("translating cylinder: {c}")));
+        }
+        k.push((sim.time(), sim.flow().polymer_forces()[0][0]));
     }
     Ok(k)
 }
@@ -237,12 +252,7 @@ pub fn translating_cylinder_convergence(
             seconds_per_step,
         });
     }
-    let rate = fitted_slope(
-        &rows
-            .iter()
-            .map(|r| (r.dt.ln(), r.error.ln()))
-            .collect::<Vec<_>>(),
-    );
+    let rate = fitted_slope(rows.iter().map(|r| (r.dt.ln(), r.error.ln())));
     Ok(TimeConvergence {
         h,
         dt_ref,
@@ -266,7 +276,8 @@ pub fn relative_l2_difference(a: &[(f64, f64)], b: &[(f64, f64)]) -> f64 {
 }
 
 /// Least-squares slope through points (x, y).
-pub(crate) fn fitted_slope(p: &[(f64, f64)]) -> f64 {
+pub(crate) fn fitted_slope(points: impl IntoIterator<Item = (f64, f64)>) -> f64 {
+    let p: Vec<(f64, f64)> = points.into_iter().collect();
     let n = p.len() as f64;
     let (mx, my) = (
         p.iter().map(|q| q.0).sum::<f64>() / n,

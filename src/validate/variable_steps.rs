@@ -7,10 +7,10 @@
 //! the semi-implicit stress predictor, the temporary ALE's mesh velocity, the particle predictor.
 
 use super::moving::{
-    cylinder_run, fitted_slope, translating_cylinder, CylinderStress, Frame, LAMBDA,
+    fitted_slope, translating_cylinder, translating_cylinder_steps, CylinderStress, Frame, LAMBDA,
 };
 use crate::solver::ale::Remap;
-use crate::solver::moving::{MovingError, StepOutcome};
+use crate::solver::moving::MovingError;
 use crate::xfem::CutOptions;
 
 /// Required fitted order, as for fixed steps ([`super::moving::MIN_TIME_RATE`]).
@@ -108,30 +108,6 @@ impl VariableConvergence {
     }
 }
 
-/// K(t) of the translating cylinder stepped with `steps`.
-///
-/// # Errors
-/// [`MovingError`] if a step fails or the cylinder touches a wall.
-pub fn translating_cylinder_steps(
-    h: f64,
-    steps: &[f64],
-    cut: CutOptions,
-    remap: Remap,
-    frame: Frame,
-    stress: CylinderStress,
-) -> Result<Vec<(f64, f64)>, MovingError> {
-    let mut sim = cylinder_run(h, steps[0], cut, remap, frame, stress)?;
-    let mut k = vec![(0.0, 0.0)];
-    for &dt in steps {
-        sim.set_dt(dt);
-        if let StepOutcome::Contact(c) | StepOutcome::ContactAfter(_, c) = sim.step()? {
-            return Err(MovingError::Setup(format!("translating cylinder: {c}")));
-        }
-        k.push((sim.time(), sim.flow().polymer_forces()[0][0]));
-    }
-    Ok(k)
-}
-
 /// Runs the reference with `dt_ref` (which must divide λ) and, for each mean step in `bases`,
 /// a random step sequence ([`random_steps`], one seed per row).
 ///
@@ -164,12 +140,7 @@ pub fn variable_step_convergence(
             error: relative_error(&k, &reference, dt_ref),
         });
     }
-    let rate = fitted_slope(
-        &rows
-            .iter()
-            .map(|r| (r.mean_dt.ln(), r.error.ln()))
-            .collect::<Vec<_>>(),
-    );
+    let rate = fitted_slope(rows.iter().map(|r| (r.mean_dt.ln(), r.error.ln())));
     Ok(VariableConvergence {
         h,
         dt_ref,

@@ -225,3 +225,41 @@ fn an_outcome_on_an_unresolved_gap_carries_a_warning() {
         o.final_state.get("gap_elements_min").is_none() && o.final_state.get("warning").is_none()
     );
 }
+
+/// The steady test is a rate (issue 27): ω* changing at 4e-5 per t* is steady and at 6e-5 is not,
+/// whether the steps are 0.02 (the thesis' 1e-6 per step) or 0.08 (where a per-step test would
+/// have asked a four times slower change) or vary.
+#[test]
+fn the_steady_test_is_a_rate_whatever_the_step() {
+    let spec = shear(1);
+    let decide = |rate: f64, steps: &dyn Fn(u64) -> f64| {
+        let mut c = Classifier::new(&spec);
+        let mut t = 0.0;
+        for step in 1..=200u64 {
+            t += steps(step);
+            let p = ParticleState {
+                x: 0.0,
+                y: 0.0,
+                u: 0.0,
+                v: 0.0,
+                omega: 0.5 + rate * t,
+                theta: 0.0,
+            };
+            let sample = Sample {
+                step,
+                t,
+                particles: vec![p],
+                gap_elements: None,
+            };
+            if let Some(o) = c.push(&sample) {
+                return Some(o.kind);
+            }
+        }
+        None
+    };
+    let varying = |step: u64| if step.is_multiple_of(3) { 0.08 } else { 0.05 };
+    for steps in [&(|_| 0.02) as &dyn Fn(u64) -> f64, &|_| 0.08, &varying] {
+        assert_eq!(decide(4e-5, steps), Some(OutcomeKind::Steady));
+        assert_eq!(decide(6e-5, steps), None);
+    }
+}

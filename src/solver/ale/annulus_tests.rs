@@ -1,16 +1,8 @@
 //! Unit tests of the temporary ALE map on the annulus, and of the extension into a disc.
 
+use super::tests::bdf_of;
 use super::*;
-use crate::solver::bdf::Bdf2;
 
-/// Euler for a first step, else fixed-step BDF2.
-fn bdf_of(first: bool) -> Bdf2 {
-    if first {
-        Bdf2::EULER
-    } else {
-        Bdf2::with_ratio(1.0)
-    }
-}
 use crate::geometry::CouetteGeometry;
 
 #[test]

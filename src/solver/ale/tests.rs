@@ -4,7 +4,7 @@ use super::*;
 use crate::solver::bdf::Bdf2;
 
 /// Euler for a first step, else fixed-step BDF2.
-fn bdf_of(first: bool) -> Bdf2 {
+pub(super) fn bdf_of(first: bool) -> Bdf2 {
     if first {
         Bdf2::EULER
     } else {

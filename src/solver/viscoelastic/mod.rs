@@ -27,7 +27,7 @@ mod state;
 
 pub use history::HistoryMap;
 pub use params::{ViscoelasticError, ViscoelasticParams, STEADY_TOL};
-pub use report::{Deviation, RunSummary, StepReport, StepTimings};
+pub use report::{RunSummary, StepReport, StepTimings};
 pub use state::FlowState;
 
 use std::time::Instant;

@@ -1,6 +1,7 @@
 //! What a step reports: its changes (the steady test), the particles' deviation from their
 //! extrapolation (the step controller's estimate) and the timings of its phases.
 
+use crate::particles::Deviation;
 use crate::solver::constitutive::TransportTimings;
 
 /// Wall-clock seconds of the phases of one step (the one timing record of a step: a step with
@@ -52,16 +53,6 @@ pub struct StepReport {
     pub deviation: Option<Deviation>,
     /// Timings.
     pub timings: StepTimings,
-}
-
-/// How far the particles of a step are from the extrapolation Ŷ = Yⁿ + ω(Yⁿ − Yⁿ⁻¹) of their
-/// state: max over particles; ≈ ½(1+ω)Δt²|Ÿ| for smooth motion.
-#[derive(Debug, Clone, Copy, Default, PartialEq)]
-pub struct Deviation {
-    /// |Xⁿ⁺¹ − X̂| and a|Θⁿ⁺¹ − Θ̂|, in radii a.
-    pub position: f64,
-    /// |Uⁿ⁺¹ − Û| and a|ωⁿ⁺¹ − ω̂|, in radii a per unit time.
-    pub velocity: f64,
 }
 
 /// How a run ended.
