@@ -284,6 +284,24 @@ fn a_killed_adaptive_case_continues_with_the_steps_it_would_have_taken() {
         .query_row("SELECT max(t) FROM samples", [], |r| r.get(0))
         .unwrap();
     assert!((t_last - 2.0).abs() < 1e-12, "ends at t_end, not {t_last}");
+    // the steps redone are recorded with the outcome, the same for the resumed run
+    let rejected = |db: &str| -> Option<i64> {
+        Store::open_read_only(&dir.join(db))
+            .unwrap()
+            .connection()
+            .query_row(
+                "SELECT json_extract(final_json, '$.rejected_steps') FROM outcomes",
+                [],
+                |r| r.get(0),
+            )
+            .unwrap()
+    };
+    let whole = rejected("whole.db");
+    assert!(
+        whole.is_some(),
+        "an adaptive case records its rejected steps"
+    );
+    assert_eq!(rejected("killed.db"), whole);
 }
 
 /// Runs the two-particle sweep of `numerics_dt` (the `dt = …` of its numerics) uninterrupted,

@@ -90,6 +90,9 @@ pub struct StepController {
     dt: f64,
     /// The error of the last accepted step.
     last_error: Option<f64>,
+    /// Steps tried and redone so far (an error above the tolerance or a predicted contact).
+    #[serde(default)]
+    rejected: u64,
 }
 
 impl StepController {
@@ -101,7 +104,13 @@ impl StepController {
             rate,
             dt: spec.initial,
             last_error: None,
+            rejected: 0,
         }
+    }
+
+    /// Steps tried and redone so far (each costs a step's work beside the accepted ones).
+    pub fn rejected(&self) -> u64 {
+        self.rejected
     }
 
     /// Δt of the next step.
@@ -128,6 +137,7 @@ impl StepController {
         if e > 1.0 && taken > self.spec.min {
             let factor = (SAFETY * e.powf(-0.5)).clamp(MIN_RATIO, 1.0);
             self.dt = (taken * factor).max(self.spec.min);
+            self.rejected += 1;
             return Verdict::Reject;
         }
         let memory = self.last_error.map_or(1.0, |last| (last / e).powf(K_P));
@@ -147,6 +157,7 @@ impl StepController {
             return false;
         }
         self.dt = (MIN_RATIO * taken).max(self.spec.min);
+        self.rejected += 1;
         true
     }
 
@@ -202,6 +213,7 @@ mod tests {
         assert_eq!(c.dt(), 0.01);
         assert_eq!(c.judge(0.0015, Some(100.0), f64::INFINITY), Verdict::Reject);
         assert_eq!(c.dt(), 0.001);
+        assert_eq!(c.rejected(), 2, "each rejection is counted");
         assert_eq!(
             c.judge(0.001, Some(100.0), f64::INFINITY),
             Verdict::Accept,
@@ -235,6 +247,11 @@ mod tests {
         assert!(c.retry_contact(0.0015));
         assert_eq!(c.dt(), 0.001);
         assert!(!c.retry_contact(0.001));
+        assert_eq!(
+            c.rejected(),
+            2,
+            "a retried step is a rejected one, the last was taken"
+        );
     }
 
     #[test]

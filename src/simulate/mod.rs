@@ -205,6 +205,11 @@ impl Simulation {
             .map_or(self.stepper.dt(), StepController::dt)
     }
 
+    /// Steps tried and redone by the step controller (`None`: a fixed Δt).
+    pub fn rejected_steps(&self) -> Option<u64> {
+        self.control.as_ref().map(StepController::rejected)
+    }
+
     /// Steps taken.
     pub fn steps(&self) -> u64 {
         self.stepper.flow().history().steps() as u64

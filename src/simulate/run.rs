@@ -37,6 +37,9 @@ pub struct CaseResult {
     pub steps: u64,
     /// Simulated time reached.
     pub t: f64,
+    /// Steps the adaptive step controller tried and redone, beside the `steps` kept (`None`:
+    /// a fixed Δt, or a run that ended in an error).
+    pub rejected_steps: Option<u64>,
 }
 
 impl CaseResult {
@@ -46,6 +49,7 @@ impl CaseResult {
             status: RunStatus::Failed { error },
             steps: 0,
             t: 0.0,
+            rejected_steps: None,
         }
     }
 }
@@ -108,6 +112,7 @@ fn finished(sim: &Simulation) -> CaseResult {
         status: RunStatus::Finished,
         steps: sim.steps(),
         t: sim.time(),
+        rejected_steps: sim.rejected_steps(),
     }
 }
 
@@ -123,7 +128,12 @@ fn ended_by(e: MovingError, steps: u64, t: f64) -> CaseResult {
             error: format!("step {}, {}: {e}", steps + 1, e.phase()),
         }
     };
-    CaseResult { status, steps, t }
+    CaseResult {
+        status,
+        steps,
+        t,
+        rejected_steps: None,
+    }
 }
 
 /// Whether an error is a non-finite state of the physics (particle velocities, the

@@ -350,8 +350,8 @@ fn run_one(case: &PlannedCase, ctx: &CaseContext<'_>) -> Result<CaseRun, StoreEr
         Err(error) => Ok(crate::simulate::CaseResult::failed(error)),
         Ok(()) => catch_unwind(AssertUnwindSafe(|| ctx.runner.run(&case.spec, &mut rec))),
     };
-    let (status, steps, t) = match result {
-        Ok(r) => (r.status, r.steps, r.t),
+    let (status, steps, t, rejected) = match result {
+        Ok(r) => (r.status, r.steps, r.t, r.rejected_steps),
         Err(payload) => {
             let msg = payload
                 .downcast_ref::<String>()
@@ -367,6 +367,7 @@ fn run_one(case: &PlannedCase, ctx: &CaseContext<'_>) -> Result<CaseRun, StoreEr
                 },
                 steps,
                 t,
+                None,
             )
         }
     };
@@ -384,6 +385,10 @@ fn run_one(case: &PlannedCase, ctx: &CaseContext<'_>) -> Result<CaseRun, StoreEr
         RunStatus::Failed { error } => (None, Some(error)),
     };
     let mut outcome = outcome;
+    if let (Some(o), Some(n)) = (outcome.as_mut(), rejected) {
+        // what an adaptive step cost beside the steps kept
+        o.final_state["rejected_steps"] = serde_json::json!(n);
+    }
     for (what, e) in [
         ("snapshot", rec.snapshot_error.take()),
         ("saved state", rec.state_error.take()),

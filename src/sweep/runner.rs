@@ -76,13 +76,7 @@ impl CaseRunner for FakeRunner {
         let behaviour = (self.behaviour)(case);
         let kind = match &behaviour {
             FakeBehaviour::Produce(k) => *k,
-            FakeBehaviour::Fail(e) => {
-                return CaseResult {
-                    status: RunStatus::Failed { error: e.clone() },
-                    steps: 0,
-                    t: 0.0,
-                }
-            }
+            FakeBehaviour::Fail(e) => return CaseResult::failed(e.clone()),
             _ => OutcomeKind::Timeout,
         };
         let dt = case.numerics.dt.initial();
@@ -107,6 +101,7 @@ impl CaseRunner for FakeRunner {
                             },
                             steps: step,
                             t,
+                            rejected_steps: None,
                         }
                     }
                     FakeBehaviour::Panic => panic!("fake solver panicked at step {step}"),
@@ -121,6 +116,7 @@ impl CaseRunner for FakeRunner {
                     status: RunStatus::Finished,
                     steps: step,
                     t,
+                    rejected_steps: None,
                 };
             }
             if obs.state_due(step) {
@@ -131,6 +127,7 @@ impl CaseRunner for FakeRunner {
             status: RunStatus::Finished,
             steps,
             t,
+            rejected_steps: None,
         }
     }
 }
