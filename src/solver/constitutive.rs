@@ -8,7 +8,7 @@
 //! ```
 //!
 //! With steps of varying size the coefficients are those of variable-step BDF2 and ŝ the
-//! matching extrapolation ([`Bdf2`]: 3/2, 2, ½ and 2sⁿ − s^{n−1} for equal steps).
+//! matching extrapolation ([`Bdf2`](crate::solver::bdf::Bdf2): 3/2, 2, ½ and 2sⁿ − s^{n−1} for equal steps).
 //!
 //! with g the right-hand side of the log-conformation equation (Eqs. 2.7, 5.7;
 //! [`log_conformation_rhs`]) evaluated explicitly at the quadrature points, G the velocity
@@ -37,10 +37,10 @@ use crate::fem::quadrature::gauss_quad;
 use crate::fem::sparse::{q1_pattern, SparseMatrix};
 use crate::mesh::Mesh;
 use crate::rheology::{log_conformation_rhs, Giesekus, Sym2, VelocityGradient};
-use crate::solver::bdf::Bdf2;
 use crate::solver::ghost::{
     face_vertices, ghost_face_matrix, ghost_faces, pattern_with_faces, GhostFace,
 };
+pub use crate::solver::log_conformation_history::LogConformationHistory;
 use crate::solver::rigid::ElementCut;
 pub use crate::solver::supg::{length_along, supg_tau, SupgVelocity};
 
@@ -80,72 +80,6 @@ pub enum ConstitutiveError {
     TimeStep(f64),
 }
 
-/// The time levels of `s` the BDF2 scheme needs, per Q1 vertex. Public so that a temporary ALE
-/// map can move both levels onto the current mesh before a step.
-#[derive(Debug, Clone, PartialEq, serde::Serialize, serde::Deserialize)]
-pub struct LogConformationHistory {
-    /// `sⁿ`.
-    pub current: Vec<Sym2>,
-    /// `s^{n−1}` (`None` before the first step: that one is Euler).
-    pub previous: Option<Vec<Sym2>>,
-    steps: usize,
-    /// Δt of the last step (from s^{n−1} to sⁿ), for the variable-step coefficients of the next;
-    /// `None` before the first step (and in states saved before steps could vary: then the
-    /// next step is taken as of the same size).
-    #[serde(default, skip_serializing_if = "Option::is_none")]
-    last_dt: Option<f64>,
-}
-
-impl LogConformationHistory {
-    /// The stress-free state `s = 0` (`c = I`) on `n_vertices` vertices.
-    pub fn at_rest(n_vertices: usize) -> Self {
-        Self::from_field(vec![Sym2::ZERO; n_vertices])
-    }
-
-    /// Starts from a given field `s⁰` (no earlier level: the first step is Euler).
-    pub fn from_field(s0: Vec<Sym2>) -> Self {
-        Self {
-            current: s0,
-            previous: None,
-            steps: 0,
-            last_dt: None,
-        }
-    }
-
-    /// Number of steps taken.
-    pub fn steps(&self) -> usize {
-        self.steps
-    }
-
-    /// Ends a step of size `dt` with its solution: s^{n−1} ← sⁿ, sⁿ ← `next`.
-    pub fn push(&mut self, next: Vec<Sym2>, dt: f64) {
-        self.previous = Some(std::mem::replace(&mut self.current, next));
-        self.steps += 1;
-        self.last_dt = Some(dt);
-    }
-
-    /// Ends a step of size `dt` in which `s` did not change (a fluid without polymer: s = 0
-    /// throughout), without copying the fields.
-    pub fn push_unchanged(&mut self, dt: f64) {
-        self.steps += 1;
-        self.last_dt = Some(dt);
-    }
-
-    /// Δt of the last step (`None` before the first, or unknown in an old saved state).
-    pub fn last_dt(&self) -> Option<f64> {
-        self.last_dt
-    }
-
-    /// The BDF2 coefficients of a step `dt` from these levels: Euler without s^{n−1}, else
-    /// variable-step BDF2 after the last step (taken as `dt` when unknown).
-    pub fn bdf2(&self, dt: f64) -> Bdf2 {
-        match self.previous {
-            None => Bdf2::EULER,
-            Some(_) => Bdf2::after(dt, Some(self.last_dt.unwrap_or(dt))),
-        }
-    }
-}
-
 /// The flow seen by the transport step, all at `t^{n+1}`.
 #[derive(Debug, Clone, Copy)]
 pub struct TransportFlow<'a> {
@@ -179,7 +113,7 @@ pub struct TransportElement<'a> {
     pub w: [[f64; 2]; 9],
     /// G at the Q1 corners.
     pub g: [[f64; 4]; 4],
-    /// History term at the corners: `(c₁sⁿ − c₂s^{n−1})/Δt` (BDF2, [`Bdf2`]) or `sⁿ/Δt` (Euler).
+    /// History term at the corners: `(c₁sⁿ − c₂s^{n−1})/Δt` (BDF2, [`Bdf2`](crate::solver::bdf::Bdf2)) or `sⁿ/Δt` (Euler).
     pub history: [Sym2; 4],
     /// Argument of g at the corners: `ŝ = (1+ω)sⁿ − ωs^{n−1}` (BDF2) or `sⁿ` (Euler).
     pub s_arg: [Sym2; 4],
@@ -341,7 +275,7 @@ impl LogConformationTransport {
         assert_eq!(history.current.len(), self.n_vertices, "history size");
         assert_eq!(flow.velocity.len(), mesh.n_nodes(), "velocity size");
         assert_eq!(flow.gradient.len(), self.n_vertices, "gradient size");
-        let step = history.steps + 1;
+        let step = history.steps() + 1;
         let t0 = Instant::now();
         self.assemble(mesh, model, dt, flow, history);
         let t1 = Instant::now();

@@ -8,6 +8,7 @@ pub mod constitutive_stress;
 pub mod cutcells;
 pub mod flow;
 pub mod ghost;
+pub mod log_conformation_history;
 pub mod moving;
 pub mod norms;
 pub mod polymer_terms;
