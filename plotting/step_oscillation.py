@@ -56,45 +56,69 @@ def solve3(a: list[list[float]], b: list[float]) -> list[float]:
     return x
 
 
+def interpolate(series: list[tuple[float, float]], t: float) -> float | None:
+    """Linear interpolation of (t, value) pairs sorted by t; None outside them."""
+    for (t0, v0), (t1, v1) in zip(series, series[1:]):
+        if t0 <= t <= t1:
+            return v0 if t1 == t0 else v0 + (v1 - v0) * (t - t0) / (t1 - t0)
+    return None
+
+
 def main(db: str) -> None:
     con = sqlite3.connect(f"file:{db}?mode=ro", uri=True)
     rows = con.execute(
         "SELECT c.id, c.params_json, c.status, o.kind FROM cases c "
         "LEFT JOIN outcomes o ON o.case_id = c.id ORDER BY c.id"
     ).fetchall()
-    print("| Wi | β | Δt | Δt/λ | status | max residual, middle third | last third | verdict |")
-    print("|---|---|---|---|---|---|---|---|")
+    cases = []
     for cid, params, status, kind in rows:
         p = json.loads(params)
-        fluid = p["fluid"]
-        wi, beta = fluid.get("wi", 0.0), fluid.get("beta", 0.0)
-        dt = p["numerics"]["dt"]
-        geo = p["geometry"]["confined_shear"]
+        fluid, geo = p["fluid"], p["geometry"]["confined_shear"]
         rate = geo.get("wall_speed", 1.0) / geo["h"]
-        lam = wi / rate
-        samples = con.execute(
+        series = {}
+        for particle, t, w in con.execute(
             "SELECT particle, t, omega FROM samples WHERE case_id = ? ORDER BY particle, step", (cid,)
-        ).fetchall()
-        if not samples:
-            print(f"| {wi:g} | {beta:g} | {dt} | – | {status} | – | – | not run |")
+        ):
+            series.setdefault(particle, []).append((t * rate, w / rate))
+        cases.append(
+            dict(wi=fluid.get("wi", 0.0), beta=fluid.get("beta", 0.0), dt=p["numerics"]["dt"] * rate,
+                 lam=fluid.get("wi", 0.0), status=status, kind=kind, series=series)
+        )
+    print("| Wi | β | Δt* | Δt/λ | outcome | residual, middle third | last third | from the finest Δt, last third | verdict |")
+    print("|---|---|---|---|---|---|---|---|---|")
+    for c in sorted(cases, key=lambda c: (c["wi"], c["beta"], -c["dt"])):
+        if not c["series"]:
+            print(f"| {c['wi']:g} | {c['beta']:g} | {c['dt']:g} | – | {c['status']} | – | – | – | not run |")
             continue
-        t_end = max(t for _, t, _ in samples)
+        t_end = max(t for s in c["series"].values() for t, _ in s)
         windows = [(t_end / 3, 2 * t_end / 3), (2 * t_end / 3, t_end)]
         res = [0.0, 0.0]
-        for particle in sorted({s[0] for s in samples}):
-            series = [(t * rate, w / rate) for q, t, w in samples if q == particle]
+        for s in c["series"].values():
             for i, (lo, hi) in enumerate(windows):
-                pts = [(t, w) for t, w in series if lo * rate <= t <= hi * rate]
+                pts = [(t, w) for t, w in s if lo <= t <= hi]
                 res[i] = max(res[i], quadratic_residual([t for t, _ in pts], [w for _, w in pts]))
-        if kind in ("diverged",) or status == "failed":
-            verdict = kind or status
-        elif res[1] > OSCILLATION_TOL:
-            verdict = "oscillates"
+        finest = min(
+            (o for o in cases if (o["wi"], o["beta"]) == (c["wi"], c["beta"]) and o["series"]),
+            key=lambda o: o["dt"],
+        )
+        dev = 0.0
+        for particle, s in c["series"].items():
+            ref = finest["series"].get(particle, [])
+            for t, w in s:
+                r = interpolate(ref, t) if t >= windows[1][0] else None
+                if r is not None:
+                    dev = max(dev, abs(w - r))
+        if c["kind"] == "diverged" or c["status"] == "failed":
+            verdict = c["kind"] or c["status"]
+        elif finest is c:
+            verdict = "reference"
+        elif dev > OSCILLATION_TOL:
+            verdict = "off the finest step"
         else:
-            verdict = "smooth"
-        ratio = f"{dt / lam:.3f}" if isinstance(dt, (int, float)) and lam > 0 else "–"
+            verdict = "follows"
         print(
-            f"| {wi:g} | {beta:g} | {dt} | {ratio} | {kind or status} | {res[0]:.1e} | {res[1]:.1e} | {verdict} |"
+            f"| {c['wi']:g} | {c['beta']:g} | {c['dt']:g} | {c['dt'] / c['lam']:.3f} | {c['kind'] or c['status']} "
+            f"| {res[0]:.1e} | {res[1]:.1e} | {dev:.1e} | {verdict} |"
         )
 
 

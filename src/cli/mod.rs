@@ -4,6 +4,7 @@
 pub mod args;
 mod bench;
 pub mod cluster;
+mod estimate;
 mod run;
 mod search_cmds;
 pub mod sweep_cmds;

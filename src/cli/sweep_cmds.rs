@@ -39,6 +39,10 @@ pub struct SweepArgs {
     /// With --dry-run: print every case's resolved numerical settings (all defaults filled in).
     #[arg(long, requires = "dry_run")]
     pub resolved: bool,
+    /// With --dry-run: the estimated core-hours of every case and of the sweep (an upper bound at
+    /// the rate of the database's slowest finished case, or the benchmark's), and what is left.
+    #[arg(long, requires = "dry_run")]
+    pub estimate: bool,
     /// No progress output.
     #[arg(long)]
     pub quiet: bool,
@@ -182,6 +186,10 @@ pub fn run_sweep_with(
         writeln!(out, "{} cases in sweep {}", cases.len(), spec.name)?;
         if args.resolved {
             print_resolved(&cases, out)?;
+        }
+        if args.estimate {
+            let db = sweep_options(args, &spec).db;
+            super::estimate::print_estimate(&cases, &db, out)?;
         }
         return Ok(ExitCode::SUCCESS);
     }

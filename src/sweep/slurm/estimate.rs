@@ -80,12 +80,18 @@ pub fn memory_mb(cases: &[&PlannedCase]) -> u64 {
     (bytes / 1e6).ceil() as u64
 }
 
-/// Wall-clock seconds the longest case may need: its steps × elements × step cost × `rate`,
-/// with a margin and a fixed overhead.
+/// Core-seconds a case needs at most: its steps (at the initial Δt of an adaptive step, all of
+/// them even with an early stop) × elements × step cost × `rate`.
+pub fn case_seconds(spec: &CaseSpec, rate: &Rate) -> f64 {
+    spec.steps() * spec.mesh_elements() * spec.step_cost() * rate.seconds()
+}
+
+/// Wall-clock seconds the longest case may need: [`case_seconds`] with a margin and a fixed
+/// overhead.
 pub fn time_seconds(cases: &[&PlannedCase], rate: &Rate) -> f64 {
     let longest = cases
         .iter()
-        .map(|c| c.spec.steps() * c.spec.mesh_elements() * c.spec.step_cost() * rate.seconds())
+        .map(|c| case_seconds(&c.spec, rate))
         .fold(0.0, f64::max);
     longest * TIME_MARGIN + TIME_OVERHEAD_S
 }

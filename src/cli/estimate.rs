@@ -1,0 +1,155 @@
+//! `xpflow sweep FILE --dry-run --estimate`: what a sweep will cost before it runs — per case its
+//! elements, steps and step cost and the core-hours they take at a measured rate, the total, and
+//! what is left of it when the sweep's database already has finished cases.
+//!
+//! The rate is the one the cluster path asks SLURM for ([`Rate`]): the slowest finished case of
+//! the sweep's database (seconds per element and step, every rejected step and resumption
+//! included) when there is one, else the benchmark of docs/performance.md. The steps are an upper
+//! bound: a fixed step's t_end/Δt and an adaptive step's t_end over its *initial* Δt, with no early
+//! stop (an adaptive case took 3.9–4.2× fewer steps on the reference set, docs/validation.md).
+
+use std::collections::BTreeMap;
+use std::io::Write;
+use std::path::Path;
+
+use crate::config::{CaseSpec, PlannedCase};
+use crate::store::{Format, Store, Table};
+use crate::sweep::slurm::estimate::{case_seconds, Rate};
+
+/// What the database already knows: each case's status and the finished cases' timings.
+struct Known {
+    status: BTreeMap<String, String>,
+    finished: Vec<(CaseSpec, f64, u64)>,
+}
+
+/// Reads statuses and timings from `db` if it exists (read-only: a reader never writes).
+fn known(db: &Path) -> anyhow::Result<Known> {
+    let mut k = Known {
+        status: BTreeMap::new(),
+        finished: Vec::new(),
+    };
+    if !db.exists() {
+        return Ok(k);
+    }
+    let store = Store::open_read_only(db)?;
+    k.status = store.statuses()?.into_iter().collect();
+    k.finished = store
+        .finished_timings()?
+        .into_iter()
+        .filter_map(|(json, wall, steps)| {
+            let spec = CaseSpec::from_value(serde_json::from_str(&json).ok()?).ok()?;
+            Some((spec, wall, steps))
+        })
+        .collect();
+    Ok(k)
+}
+
+/// Prints the estimate of `cases` (the sweep's database `db`, which may not exist yet).
+///
+/// # Errors
+/// A database that exists but cannot be read, or a failed write to `out`.
+pub(super) fn print_estimate(
+    cases: &[PlannedCase],
+    db: &Path,
+    out: &mut dyn Write,
+) -> anyhow::Result<()> {
+    let known = known(db)?;
+    let rate = Rate::from_finished(&known.finished);
+    let mut t = Table {
+        columns: [
+            "index",
+            "id",
+            "label",
+            "elements",
+            "steps ≤",
+            "step cost",
+            "core-h ≤",
+            "status",
+        ]
+        .map(String::from)
+        .to_vec(),
+        rows: Vec::new(),
+    };
+    let (mut total, mut left) = (0.0, 0.0);
+    for c in cases {
+        let hours = case_seconds(&c.spec, &rate) / 3600.0;
+        let status = known
+            .status
+            .get(&c.id)
+            .cloned()
+            .unwrap_or_else(|| "not run".into());
+        total += hours;
+        if status != "done" {
+            left += hours;
+        }
+        t.rows.push(vec![
+            c.index.into(),
+            c.id.clone().into(),
+            c.label.clone().into(),
+            (c.spec.mesh_elements() as i64).into(),
+            (c.spec.steps() as i64).into(),
+            c.spec.step_cost().into(),
+            format!("{hours:.2}").into(),
+            status.into(),
+        ]);
+    }
+    write!(out, "{}", t.render(Format::Table))?;
+    writeln!(out, "rate: {}", rate.source())?;
+    writeln!(
+        out,
+        "estimate: at most {total:.1} core-hours for {} cases, {left:.1} of them not done yet \
+         (steps without early stop, adaptive steps at their initial Δt)",
+        cases.len()
+    )?;
+    Ok(())
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+    use crate::sweep::slurm::estimate::BENCHMARK_SECONDS_PER_ELEMENT_STEP;
+
+    fn planned(index: usize, mesh: [usize; 2], dt: serde_json::Value) -> PlannedCase {
+        let spec = CaseSpec::from_value(serde_json::json!({
+            "geometry": {"confined_shear": {"h": 1.0, "l": 4.0}},
+            "fluid": {"model": "giesekus", "wi": 1.0, "alpha": 0.01, "beta": 0.1},
+            "particles": {"radius": 0.1, "layout": {"string": {"n": 2, "lx": 0.5, "ly": 0.1}}},
+            "numerics": {"mesh": mesh, "dt": dt, "t_end": 20.0}
+        }))
+        .unwrap();
+        PlannedCase {
+            index,
+            id: format!("case{index}"),
+            label: format!("c{index}"),
+            spec,
+            params: Vec::new(),
+        }
+    }
+
+    /// Without a database: the benchmark rate, steps × elements (an adaptive case at its initial
+    /// Δt), summed; nothing is created where the database would be.
+    #[test]
+    fn the_estimate_sums_steps_times_elements_at_the_benchmark_rate() {
+        let cases = [
+            planned(0, [200, 50], serde_json::json!(0.02)),
+            planned(
+                1,
+                [100, 25],
+                serde_json::json!({"initial": 0.04, "min": 0.004, "max": 0.08, "tol": 1e-3}),
+            ),
+        ];
+        let db = std::env::temp_dir().join(format!("xpflow-estimate-{}.db", std::process::id()));
+        let mut out = Vec::new();
+        print_estimate(&cases, &db, &mut out).unwrap();
+        let text = String::from_utf8(out).unwrap();
+        let expect = (1000.0 * 1e4 + 500.0 * 2500.0) * BENCHMARK_SECONDS_PER_ELEMENT_STEP / 3600.0;
+        assert!(
+            text.contains(&format!(
+                "at most {expect:.1} core-hours for 2 cases, {expect:.1}"
+            )),
+            "{text}"
+        );
+        assert!(text.contains("not run"), "{text}");
+        assert!(!db.exists(), "an estimate never creates the database");
+    }
+}
