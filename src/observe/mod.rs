@@ -109,4 +109,9 @@ pub trait CaseObserver {
     fn resume_state(&mut self) -> Option<String> {
         None
     }
+    /// The run stops at time `t` because the particles would touch at the positions predicted
+    /// for the next step (the step was not taken; the last [`CaseObserver::on_step`] is the
+    /// state before it): a contact the outcome must record, though the last state's overlap may
+    /// still be below the outcome rules' threshold.
+    fn on_contact(&mut self, _contact: &crate::particles::Contact, _t: f64) {}
 }

@@ -2,7 +2,8 @@
 //! they are checked at each step:
 //! 1. `diverged`: a non-finite particle state.
 //! 2. `wall_contact`: a particle penetrates a wall by more than [`CONTACT_OVERLAP`]·a.
-//! 3. `jammed`: two particles overlap by more than [`CONTACT_OVERLAP`]·a.
+//! 3. `jammed`: two particles overlap by more than [`CONTACT_OVERLAP`]·a — or would at the positions
+//!    predicted for the next step, where the run stops ([`Classifier::contact`]; `wall_contact` alike).
 //! 4. `string` / `steady`: every particle's ω* = ω/γ̇ changes at a rate |dω*/dt*| below [`STEADY_OMEGA_RATE`]
 //!    (the thesis' [`STEADY_OMEGA_TOL`] per step of [`STEADY_REFERENCE_DT`], so any step size tests the same)
 //!    (thesis 5.7.2) for [`STEADY_HOLD_STEPS`] consecutive steps; `string` if N ≥ 2 and the particles form
@@ -48,6 +49,7 @@ pub const STEADY_HOLD_STEPS: u32 = 10;
 /// Neighbours closer than this many radii (surface gap) belong to one chain; thesis strings have gaps of
 /// 0.065a–0.15a (5.7.2), repelled particles end several radii apart.
 pub const CHAIN_GAP: f64 = 0.5;
+use crate::particles::Contact;
 pub use crate::particles::CONTACT_OVERLAP;
 /// Approach (in radii) of the end particles needed before a recovering Δx counts as `repel`, so that noise
 /// at the start is not a reversal.
@@ -202,6 +204,23 @@ impl Classifier {
             return Some(outcome);
         }
         None
+    }
+
+    /// Records a contact predicted for the step after time `t` (the run stops there): `jammed`
+    /// for two particles, `wall_contact` for a wall, unless the outcome is already decided; the
+    /// final state keeps the last computed positions and says what was predicted (`contact`).
+    pub fn contact(&mut self, contact: &Contact, t: f64) -> Option<Outcome> {
+        if self.decided.is_some() {
+            return None;
+        }
+        let kind = match contact {
+            Contact::Overlap { .. } => OutcomeKind::Jammed,
+            Contact::Wall { .. } => OutcomeKind::WallContact,
+        };
+        let mut outcome = self.outcome(kind, t, None);
+        outcome.final_state["contact"] = json!(format!("{contact} at the predicted positions"));
+        self.decided = Some(outcome.clone());
+        Some(outcome)
     }
 
     /// Records that the solver diverged (or panicked) at time `t` with `reason`.

@@ -85,7 +85,10 @@ pub fn run_case(case: &CaseSpec, obs: &mut dyn CaseObserver) -> CaseResult {
     while !sim.at_end() {
         let contact = match sim.step() {
             Err(e) => return ended_by(e, sim.steps(), sim.time()),
-            Ok(StepOutcome::Contact(_)) => return finished(&sim),
+            Ok(StepOutcome::Contact(c)) => {
+                obs.on_contact(&c, sim.time());
+                return finished(&sim);
+            }
             Ok(StepOutcome::Stepped(_)) => false,
             Ok(StepOutcome::ContactAfter(..)) => true,
         };

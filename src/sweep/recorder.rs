@@ -186,6 +186,10 @@ impl<'a> Recorder<'a> {
 }
 
 impl CaseObserver for Recorder<'_> {
+    fn on_contact(&mut self, contact: &crate::particles::Contact, t: f64) {
+        self.classifier.contact(contact, t);
+    }
+
     fn on_step(&mut self, sample: &Sample) -> Control {
         self.classifier.push(sample);
         if sample.step.is_multiple_of(self.spec.output.sample_every) {

@@ -263,3 +263,39 @@ fn the_steady_test_is_a_rate_whatever_the_step() {
         assert_eq!(decide(6e-5, steps), None);
     }
 }
+
+/// A run stopped because the particles would overlap at the predicted positions is a contact,
+/// though the last computed state overlaps by less than the rules' threshold (measured: three
+/// particles, Wi = 1, β = 0.5, 100×25, Δt = 0.16 stopped at t* = 12 with gaps −0.005a and
+/// −0.009a and was recorded `timeout` before); an outcome decided earlier stands.
+#[test]
+fn a_predicted_contact_ends_the_run_as_a_contact() {
+    let spec = shear(3);
+    let mut c = Classifier::new(&spec);
+    for step in 1..=10 {
+        let t = step as f64 * DT;
+        c.push(&synthetic::sample(OutcomeKind::Repel, &spec, step, t));
+    }
+    let overlap = crate::particles::Contact::Overlap {
+        i: 0,
+        j: 1,
+        gap: -0.012,
+    };
+    let o = c.contact(&overlap, 0.1).expect("decided by the contact");
+    assert_eq!(o.kind, OutcomeKind::Jammed);
+    assert!(o.final_state["contact"]
+        .as_str()
+        .unwrap()
+        .contains("particles 0 and 1 in contact"));
+    assert_eq!(c.finish().kind, OutcomeKind::Jammed);
+    let mut c = Classifier::new(&spec);
+    let wall = crate::particles::Contact::Wall { i: 2, gap: -0.002 };
+    assert_eq!(
+        c.contact(&wall, 0.0).unwrap().kind,
+        OutcomeKind::WallContact
+    );
+    assert!(
+        c.contact(&overlap, 0.1).is_none(),
+        "the first decision stands"
+    );
+}
