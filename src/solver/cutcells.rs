@@ -194,3 +194,48 @@ fn group_by_image(pts: &[InterfacePoint]) -> Vec<ParticleCut> {
     }
     groups
 }
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+    use crate::mesh::Axis;
+    use crate::solver::rigid::Motion;
+
+    /// The fictitious domain method's elements: nothing removed, the crossed ones whole with
+    /// the whole circle on them, the same boundary quadrature as XFEM's where both see it.
+    #[test]
+    fn the_fictitious_domain_integrates_every_element_whole() {
+        // the arcs partition the circle: its length to round-off (interface quadrature)
+        const ARC_ROUND_OFF: f64 = 1e-12;
+        let mesh = Mesh::rectangle(
+            Axis::uniform(-1.0, 1.0, 20),
+            Axis::uniform(-1.0, 1.0, 20),
+            false,
+        );
+        let particle = Particle {
+            center: [0.013, -0.021],
+            radius: 0.37,
+            motion: Motion::Free,
+        };
+        let fdm = compute_cuts(&mesh, &[particle], None, Discretization::FictitiousDomain).unwrap();
+        let xfem = compute_cuts(&mesh, &[particle], None, Discretization::default()).unwrap();
+        let mut length = 0.0;
+        for (f, x) in fdm.iter().zip(&xfem) {
+            match (f, x) {
+                (ElementCut::Inside, _) => panic!("the fictitious domain removes no element"),
+                (ElementCut::Cut(c), _) => {
+                    assert!(c.whole && c.vol.len() == WHOLE_ELEMENT_GAUSS.pow(2));
+                    length += c.particles[0].points.iter().map(|p| p.w).sum::<f64>();
+                }
+                (ElementCut::Fluid, _) => {}
+            }
+            if let (ElementCut::Cut(c), ElementCut::Cut(xc)) = (f, x) {
+                assert!(!xc.whole);
+                assert_eq!(c.particles, xc.particles, "the same boundary quadrature");
+            }
+        }
+        let circumference = 2.0 * std::f64::consts::PI * particle.radius;
+        assert!((length - circumference).abs() < ARC_ROUND_OFF * circumference);
+        assert!(xfem.iter().any(|c| matches!(c, ElementCut::Inside)));
+    }
+}

@@ -375,11 +375,12 @@ pub const FREE_PARTICLE_REFERENCE: [(f64, f64); 9] = [
 
 /// A free (force- and torque-free) particle at the centre of plane Couette flow (walls y = ±H/2
 /// moving at ±U/2, H = 1, periodic length L = 8): returns (U_x, U_y, ω/γ̇). The exact limit for
-/// 2a/H → 0 is ω/γ̇ = −1/2 (the rotation of the unbounded shear flow).
+/// 2a/H → 0 is ω/γ̇ = −1/2 (the rotation of the unbounded shear flow). `method`: XFEM with a cut
+/// rule, or the fictitious domain method.
 pub fn couette_free_particle(
     confinement: f64,
     form: WeakForm,
-    opts: CutOptions,
+    method: impl Into<Discretization>,
 ) -> Result<[f64; 3], StudyError> {
     let a = 0.5 * confinement;
     let h = a / 10.0;
@@ -392,7 +393,7 @@ pub fn couette_free_particle(
         radius: a,
         motion: Motion::Free,
     }];
-    let cuts = compute_cuts(&mesh, &particles, Some(8.0), opts)?;
+    let cuts = compute_cuts(&mesh, &particles, Some(8.0), method)?;
     let mut params = StokesParams::new(1.0, 0.0, solver_for(form));
     params.rigid_form = form;
     let mut st = Stokes::with_particles(mesh, params, particles, cuts);
