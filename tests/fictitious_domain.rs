@@ -75,7 +75,7 @@ fn a_moving_particle_case_runs_with_the_fictitious_domain_method() {
         for _ in 0..5 {
             sim.step().unwrap();
         }
-        (sim.settings().method, sim.sample().particles[0].clone())
+        (sim.settings().method, sim.sample().particles[0])
     };
     let (xm, x) = run("xfem");
     let (fm, f) = run("fdm");

@@ -19,6 +19,7 @@ use crate::solver::constitutive_stress::Coupling;
 use crate::solver::cutcells::Discretization;
 use crate::solver::flow::FLOW_GHOST_PENALTY;
 use crate::solver::moving::step_count;
+use crate::solver::rigid::FICTITIOUS_DOMAIN_PENALTY;
 use crate::solver::viscoelastic::ViscoelasticParams;
 use crate::xfem::{CutOptions, InterfaceApprox};
 
@@ -122,9 +123,10 @@ pub struct FlowSettings {
     /// How a changed flow matrix is factored: `band` (the far field once per placement of a
     /// band around the particles) or `whole`.
     pub factorization: Factorization,
-    /// Weak rigid-body condition (thesis Eqs. 5.21–5.24), κ = η0: on the particle boundary inside
-    /// each element it crosses, with either method.
-    pub rigid_condition: &'static str,
+    /// Weak rigid-body condition (thesis Eqs. 5.21–5.24) on the particle boundary inside each
+    /// element it crosses: κ = η0 with XFEM; with the fictitious domain method its stabilization
+    /// alone, κ = [`FICTITIOUS_DOMAIN_PENALTY`] η0 (`solver::rigid`).
+    pub rigid_condition: String,
     /// Ghost penalty of the flow (γ of velocity and pressure on cut-element faces; 0 with the
     /// fictitious domain method, which has no cut cells).
     pub ghost_penalty: f64,
@@ -288,12 +290,19 @@ impl Settings {
                 } else {
                     n.factorization
                 },
-                rigid_condition: "symmetric weak condition, kappa = eta0",
+                rigid_condition: if xfem {
+                    "symmetric weak condition, kappa = eta0".into()
+                } else {
+                    format!(
+                        "weak condition on a two-sided boundary: penalty only, kappa = \
+                         {FICTITIOUS_DOMAIN_PENALTY} eta0"
+                    )
+                },
                 ghost_penalty: ghost(FLOW_GHOST_PENALTY),
                 stress_ghost_penalty: ghost(GHOST_PENALTY),
                 projection_ghost_penalty: ghost(PROJECTION_GHOST_PENALTY),
             },
-            cut: xfem.then(|| CutSettings {
+            cut: xfem.then_some(CutSettings {
                 interface: match cut.interface {
                     InterfaceApprox::Quadratic => "parabolic",
                     InterfaceApprox::Linear => "linear",
@@ -356,6 +365,23 @@ mod tests {
                 interface: InterfaceApprox::Linear
             }
         );
+    }
+
+    /// The fictitious domain method: no cut rule and no ghost penalty to show, its own condition.
+    #[test]
+    fn the_fictitious_domain_has_no_cut_rule() {
+        let c = case(serde_json::json!({
+            "mesh": [40, 10], "dt": 0.04, "t_end": 1.0, "method": "fdm"
+        }));
+        assert_eq!(discretization(&c), Discretization::FictitiousDomain);
+        let s = Settings::of(&c);
+        assert_eq!((s.method, s.cut.is_none()), ("fdm", true));
+        assert_eq!(
+            (s.flow.ghost_penalty, s.flow.stress_ghost_penalty),
+            (0.0, 0.0)
+        );
+        assert!(s.flow.rigid_condition.contains("penalty only"));
+        assert!(!s.to_toml().contains("[cut]"));
     }
 
     /// The stress coupling resolved from `auto`: explicit (LBLᵀ) with a solvent, semi-implicit

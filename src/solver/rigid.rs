@@ -22,7 +22,7 @@
 //! With the fictitious domain method (FDM, `numerics.method = "fdm"`, thesis §2.3.4) the particle
 //! interior is fluid and Γ runs through elements integrated whole ([`CutElement::whole`]). The
 //! consistency terms come from integrating the momentum balance by parts over the fluid on one
-//! side of Γ; with fluid on both sides they read −(g(v), [σ]·n)_Γ with [σ] the jump of the
+//! side of Γ; with fluid on both sides they read −(g(v), ⟦σ⟧·n)_Γ with ⟦σ⟧ the jump of the
 //! stress across Γ, and the discrete fields of an element integrated whole are one polynomial
 //! there: no jump, the terms vanish (so do the polymer ones, `solver::polymer_terms`). Keeping
 //! the one-sided terms is inconsistent: measured on the confined cylinder (h = 0.05R) they drive
