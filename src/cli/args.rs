@@ -72,6 +72,10 @@ pub enum Command {
         /// Interface in the finest cut sub-squares (default: the cases' default).
         #[arg(long, value_enum, default_value_t = InterfaceArg::Parabolic)]
         interface: InterfaceArg,
+        /// How the cylinder enters the discretization (cylinder study): `xfem`, or `fdm`, the
+        /// fictitious domain method (`numerics.method`).
+        #[arg(long, value_enum, default_value_t = MethodArg::Xfem)]
+        method: MethodArg,
     },
     /// Run a performance benchmark.
     Bench {
@@ -133,7 +137,8 @@ pub enum Study {
     StokesMms,
     /// Plane and circular Couette flow.
     Couette,
-    /// Newtonian / Oldroyd-B drag on the confined cylinder (Ch. 2): prints `K = <value>`.
+    /// Newtonian / Oldroyd-B drag on the confined cylinder (Ch. 2), XFEM or `--method fdm`:
+    /// prints `K = <traction integral>` and `K_L = <force of the rigid-body condition>`.
     Cylinder,
     /// XFEM Stokes around a cylinder with the exact solution of thesis §2.4 (rates).
     XfemStokes,
@@ -208,6 +213,41 @@ pub(super) fn parse_mesh(s: &str) -> anyhow::Result<(usize, usize)> {
         "--mesh needs positive element counts, got '{s}'"
     );
     Ok((nx, ny))
+}
+
+/// How particles enter the discretization (`numerics.method`).
+#[derive(Debug, Clone, Copy, PartialEq, Eq, ValueEnum)]
+pub enum MethodArg {
+    /// XFEM (the cases' default).
+    Xfem,
+    /// The fictitious domain method (thesis §2.3.4).
+    Fdm,
+}
+
+/// The discretization of `--method` with the cut rule of `--cut-level` / `--interface`, as a case
+/// with those `numerics` would use; the fictitious domain method has no cut rule, so a cut rule
+/// other than the default is refused with it.
+///
+/// # Errors
+/// `--method fdm` with `--cut-level` or `--interface` other than the default.
+pub(super) fn discretization(
+    method: MethodArg,
+    level: u32,
+    interface: InterfaceArg,
+) -> anyhow::Result<crate::solver::cutcells::Discretization> {
+    use crate::solver::cutcells::Discretization;
+    match method {
+        MethodArg::Xfem => Ok(Discretization::Xfem(cut_options(level, interface))),
+        MethodArg::Fdm => {
+            anyhow::ensure!(
+                level == crate::config::DEFAULT_QUADTREE_LEVEL
+                    && matches!(interface, InterfaceArg::Parabolic),
+                "--method fdm integrates every element whole and has no cut-cell quadrature: \
+                 drop --cut-level and --interface"
+            );
+            Ok(Discretization::FictitiousDomain)
+        }
+    }
 }
 
 /// Interface representation of the cut-cell quadrature (`numerics.interface`).

@@ -4,6 +4,7 @@
 pub mod args;
 mod bench;
 pub mod cluster;
+mod cylinder;
 mod estimate;
 mod run;
 mod search_cmds;
@@ -39,16 +40,25 @@ pub fn run(cli: Cli) -> anyhow::Result<ExitCode> {
             t_max,
             cut_level,
             interface,
+            method,
         } => match study {
+            _ if method != args::MethodArg::Xfem && study != Study::Cylinder => {
+                anyhow::bail!("--method fdm applies to `xpflow validate cylinder` only")
+            }
             Study::StokesMms | Study::Couette => validate::validate(study, levels, solver.into()),
+            Study::Cylinder => cylinder::validate_cylinder(
+                wi,
+                &h.unwrap_or_else(|| validate::default_meshes(study, wi)),
+                dt,
+                t_max,
+                &out,
+                args::discretization(method, cut_level, interface)?,
+            ),
             _ => validate::validate_particles(
                 study,
                 levels,
-                wi,
                 &h.unwrap_or_else(|| validate::default_meshes(study, wi)),
                 &out,
-                dt,
-                t_max,
                 args::cut_options(cut_level, interface),
             ),
         },

@@ -49,45 +49,19 @@ pub(super) fn validate(
     })
 }
 
-#[allow(clippy::too_many_arguments)]
 pub(super) fn validate_particles(
     study: Study,
     levels: usize,
-    wi: f64,
     hs: &[f64],
     out: &std::path::Path,
-    dt: f64,
-    t_max: f64,
     cut: crate::xfem::CutOptions,
 ) -> anyhow::Result<ExitCode> {
     use crate::solver::rigid::WeakForm;
     use crate::validate::xstokes::{
-        couette_free_particle, cylinder_drag, cylinder_exact, FREE_PARTICLE_REFERENCE,
-        FREE_PARTICLE_TOL, NEWTONIAN_K, NEWTONIAN_K_TOL,
+        couette_free_particle, cylinder_exact, FREE_PARTICLE_REFERENCE, FREE_PARTICLE_TOL,
     };
     let mut ok = true;
     match study {
-        Study::Cylinder => {
-            if wi != 0.0 {
-                return validate_cylinder_viscoelastic(wi, hs, dt, t_max, out, cut);
-            }
-            println!(
-                "Confined cylinder, Newtonian (Wi = 0), H = 4R, L = 30R, reference K = {NEWTONIAN_K}"
-            );
-            println!("| h/R | mesh | unknowns | K (reaction) | K (stress integral) | error | time |\n|---|---|---|---|---|---|---|");
-            let mut last = 0.0;
-            for &h in hs {
-                let r = cylinder_drag(h, WeakForm::Symmetric, cut)?;
-                let err = (r.k_reaction - NEWTONIAN_K) / NEWTONIAN_K;
-                println!(
-                    "| {h} | {} | {} | {:.4} | {:.4} | {:+.2e} | {:.1} s |",
-                    r.mesh, r.dofs, r.k_reaction, r.k_stress, err, r.seconds
-                );
-                ok &= err.abs() < NEWTONIAN_K_TOL;
-                last = r.k_reaction;
-            }
-            println!("K = {last:.4}");
-        }
         Study::XfemStokes => {
             for form in [WeakForm::Symmetric, WeakForm::Thesis] {
                 let s = cylinder_exact(levels, form, cut)?;
@@ -288,7 +262,9 @@ pub(super) fn validate_particles(
             println!("tolerance (following mesh): {COUETTE_FOLLOW_TOL}");
         }
         Study::NearContact => ok &= near_contact(hs, cut)?,
-        Study::StokesMms | Study::Couette => unreachable!("handled by validate"),
+        Study::StokesMms | Study::Couette | Study::Cylinder => {
+            unreachable!("handled by validate and cylinder::validate_cylinder")
+        }
     }
     println!("verdict: {}", if ok { "PASS" } else { "FAIL" });
     Ok(if ok {
@@ -352,61 +328,6 @@ pub(super) fn default_meshes(study: Study, wi: f64) -> Vec<f64> {
     } else {
         vec![0.07]
     }
-}
-
-/// Oldroyd-B confined cylinder: K per mesh, the K(t) history as CSV, a `K = <value>` line.
-/// The verdict is that of the finest (last) mesh; coarser rows show the convergence.
-fn validate_cylinder_viscoelastic(
-    wi: f64,
-    hs: &[f64],
-    dt: f64,
-    t_max: f64,
-    out: &std::path::Path,
-    cut: crate::xfem::CutOptions,
-) -> anyhow::Result<ExitCode> {
-    use crate::validate::xstokes::{cylinder_drag_viscoelastic, VISCOELASTIC_K};
-    let refv = VISCOELASTIC_K.iter().find(|r| (r.0 - wi).abs() < 1e-12);
-    println!("Confined cylinder, Oldroyd-B, η_s/η0 = 0.59, Wi = {wi}, Δt = {dt}");
-    println!("| h/R | unknowns | steps | steady | K | rel. to reference | s/step |\n|---|---|---|---|---|---|---|");
-    std::fs::create_dir_all(out)?;
-    let mut ok = true;
-    let mut last = f64::NAN;
-    for &h in hs {
-        let r = cylinder_drag_viscoelastic(wi, h, dt, t_max, cut)?;
-        let rel = refv.map(|(_, k, _)| (r.k - k) / k);
-        ok = match (rel, refv) {
-            (Some(rel), Some((_, _, tol))) => rel.abs() < *tol && r.steady,
-            // no published value at this Wi: the run must reach the steady criterion
-            _ => r.steady,
-        };
-        println!(
-            "| {h} | {} | {} | {} | {:.4} | {} | {:.3} |",
-            r.dofs,
-            r.steps,
-            r.steady,
-            r.k,
-            rel.map_or("—".into(), |v| format!("{v:+.2e}")),
-            r.seconds_per_step
-        );
-        let mut csv = String::from("t,K\n");
-        for (t, k) in &r.history {
-            csv += &format!("{t},{k}\n");
-        }
-        std::fs::write(out.join(format!("cylinder_wi{wi}_h{h}.csv")), csv)?;
-        let mut csv = String::from("xi,x,y,tau_xx\n");
-        for v in &r.tau_xx {
-            csv += &format!("{},{},{},{}\n", v[0], v[1], v[2], v[3]);
-        }
-        std::fs::write(out.join(format!("cylinder_tau_xx_wi{wi}_h{h}.csv")), csv)?;
-        last = r.k;
-    }
-    println!("K = {last:.4}");
-    println!("verdict: {}", if ok { "PASS" } else { "FAIL" });
-    Ok(if ok {
-        ExitCode::SUCCESS
-    } else {
-        ExitCode::FAILURE
-    })
 }
 
 /// `xpflow validate near-contact`: the force table per configuration and element size, the

@@ -1,6 +1,7 @@
 //! The case specification: serde types of one simulation case (geometry, fluid, particles, numerics,
 //! output, stop rules). Construct with [`CaseSpec::from_value`], which resolves shorthands and validates.
 
+use super::method::Method;
 use super::time_step::TimeStep;
 use crate::fem::substructure::Factorization;
 use serde::{Deserialize, Serialize};
@@ -192,6 +193,10 @@ pub struct Numerics {
     /// existed used `linear`).
     #[serde(default)]
     pub interface: InterfaceRule,
+    /// How the particles enter the discretization: `xfem` (default) or `fdm`, the fictitious
+    /// domain method ([`Method`]). Not in the case id when default.
+    #[serde(default, skip_serializing_if = "Method::is_xfem")]
+    pub method: Method,
     /// How the flow matrix is factored when the particles moved: `band` (default: the far field
     /// once per placement of a band around the particles, the band every step) or `whole` (the
     /// whole matrix every step; the same solution to the solver's tolerance, for comparisons).

@@ -13,6 +13,7 @@
 mod case;
 mod error;
 mod limits;
+mod method;
 mod search;
 mod sweep_file;
 mod text;
@@ -28,6 +29,7 @@ pub use limits::{
     COUPLED_G_STEP_COST, MAX_ELEMENTS_PER_STEP, MAX_MESH_ELEMENTS, MAX_RADII_PER_STEP,
     SEMI_IMPLICIT_STEP_COST,
 };
+pub use method::Method;
 pub use search::{Change, SearchSpec};
 pub use sweep_file::{Axis, PlannedCase, SweepSpec};
 pub use text::parse as parse_text;

@@ -467,3 +467,36 @@ fn an_adaptive_step_is_checked_field_by_field() {
     let text = serde_json::to_value(&fixed.numerics).unwrap();
     assert!(text["dt"].is_number(), "{text}");
 }
+
+#[test]
+fn the_method_is_xfem_unless_named_and_fdm_refuses_a_cut_rule() {
+    let mut v = shear();
+    let plain = serde_json::to_value(CaseSpec::from_value(v.clone()).unwrap()).unwrap();
+    assert!(
+        plain["numerics"].get("method").is_none(),
+        "xfem: not in the case id"
+    );
+    v["numerics"]["method"] = json!("xfem");
+    let spelled = serde_json::to_value(CaseSpec::from_value(v.clone()).unwrap()).unwrap();
+    assert_eq!(plain, spelled, "the default spelled out is the same case");
+    v["numerics"]["method"] = json!("fdm");
+    let fdm = CaseSpec::from_value(v.clone()).unwrap();
+    assert_eq!(fdm.numerics.method, Method::Fdm);
+    assert_eq!(
+        serde_json::to_value(&fdm).unwrap()["numerics"]["method"],
+        json!("fdm")
+    );
+    // the fictitious domain method has no cut cells: a cut rule would be silently ignored
+    for (field, value) in [("quadtree_level", json!(5)), ("interface", json!("linear"))] {
+        let mut bad = v.clone();
+        bad["numerics"][field] = value;
+        let err = CaseSpec::from_value(bad).expect_err("a cut rule with fdm");
+        assert_eq!(err.field, format!("numerics.{field}"));
+        assert!(err.message.contains("method = \"xfem\""), "{}", err.message);
+    }
+    let mut unknown = v;
+    unknown["numerics"]["method"] = json!("fem");
+    let err = CaseSpec::from_value(unknown).expect_err("unknown method");
+    assert_eq!(err.field, "numerics.method");
+    assert!(err.message.contains("fdm"), "{}", err.message);
+}

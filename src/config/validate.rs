@@ -341,6 +341,7 @@ impl CaseSpec {
                 ),
             ));
         }
+        n.method.check(n)?;
         if self.output.sample_every == 0 {
             return Err(SpecError::new(
                 "output.sample_every",

@@ -139,7 +139,7 @@ impl Simulation {
             set_up,
             case.initial_positions(),
             radius,
-            settings::cut_options(case),
+            settings::discretization(case),
         )?;
         stepper.set_remap(settings::ale_remap(case.numerics.remap));
         Ok(Simulation {

@@ -7,15 +7,19 @@
 use crate::fem::substructure::Factorization;
 use serde::Serialize;
 
-use crate::config::{CaseSpec, Geometry, HistoryRemap, InterfaceRule, StressCoupling, TimeStep};
+use crate::config::{
+    CaseSpec, Geometry, HistoryRemap, InterfaceRule, Method, StressCoupling, TimeStep,
+};
 use crate::observe::outcome::STEADY_OMEGA_RATE;
 use crate::particles::CONTACT_OVERLAP;
 use crate::solver::ale::Remap;
 use crate::solver::constitutive::{SupgVelocity, GHOST_PENALTY};
 use crate::solver::constitutive_projection::PROJECTION_GHOST_PENALTY;
 use crate::solver::constitutive_stress::Coupling;
+use crate::solver::cutcells::Discretization;
 use crate::solver::flow::FLOW_GHOST_PENALTY;
 use crate::solver::moving::step_count;
+use crate::solver::rigid::FICTITIOUS_DOMAIN_PENALTY;
 use crate::solver::viscoelastic::ViscoelasticParams;
 use crate::xfem::{CutOptions, InterfaceApprox};
 
@@ -30,10 +34,14 @@ pub struct Settings {
     pub fluid: FluidSettings,
     /// Time stepping.
     pub time: TimeSettings,
+    /// How the particles enter the discretization: `xfem`, or `fdm` (the fictitious domain
+    /// method: particle interior fluid, elements integrated whole, no cut cells).
+    pub method: &'static str,
     /// The flow solve.
     pub flow: FlowSettings,
-    /// The cut-cell quadrature.
-    pub cut: CutSettings,
+    /// The cut-cell quadrature (XFEM only; absent with the fictitious domain method).
+    #[serde(skip_serializing_if = "Option::is_none")]
+    pub cut: Option<CutSettings>,
     /// How the history is carried onto the moving configuration (temporary ALE).
     pub history_remap: &'static str,
     /// The frame the case is solved in (samples and snapshots are reported in the lab frame).
@@ -115,9 +123,12 @@ pub struct FlowSettings {
     /// How a changed flow matrix is factored: `band` (the far field once per placement of a
     /// band around the particles) or `whole`.
     pub factorization: Factorization,
-    /// Weak rigid-body condition (thesis Eqs. 5.21–5.24), κ = η0.
-    pub rigid_condition: &'static str,
-    /// Ghost penalty of the flow (γ of velocity and pressure on cut-element faces).
+    /// Weak rigid-body condition (thesis Eqs. 5.21–5.24) on the particle boundary inside each
+    /// element it crosses: κ = η0 with XFEM; with the fictitious domain method its stabilization
+    /// alone, κ = [`FICTITIOUS_DOMAIN_PENALTY`] η0 (`solver::rigid`).
+    pub rigid_condition: String,
+    /// Ghost penalty of the flow (γ of velocity and pressure on cut-element faces; 0 with the
+    /// fictitious domain method, which has no cut cells).
     pub ghost_penalty: f64,
     /// Ghost penalty of the log-conformation transport.
     pub stress_ghost_penalty: f64,
@@ -148,6 +159,15 @@ pub fn cut_options(case: &CaseSpec) -> CutOptions {
     CutOptions {
         level: case.numerics.quadtree_level,
         interface: interface_approx(case.numerics.interface),
+    }
+}
+
+/// How a case's particles enter the discretization (`numerics.method`): XFEM with the cut rule
+/// of [`cut_options`], or the fictitious domain method.
+pub fn discretization(case: &CaseSpec) -> Discretization {
+    match case.numerics.method {
+        Method::Xfem => Discretization::Xfem(cut_options(case)),
+        Method::Fdm => Discretization::FictitiousDomain,
     }
 }
 
@@ -221,6 +241,9 @@ impl Settings {
         };
         let lu = params.coupling == Coupling::SemiImplicit && polymer;
         let cut = cut_options(case);
+        let xfem = n.method == Method::Xfem;
+        // the ghost penalties act on the faces of XFEM's cut cells only: none exist otherwise
+        let ghost = |gamma: f64| if xfem { gamma } else { 0.0 };
         Settings {
             geometry: case.geometry.kind(),
             mesh: MeshSettings {
@@ -232,6 +255,7 @@ impl Settings {
                 },
                 follow,
             },
+            method: n.method.name(),
             fluid: FluidSettings {
                 eta_s: params.eta_s,
                 eta_p: params.eta_p,
@@ -266,18 +290,25 @@ impl Settings {
                 } else {
                     n.factorization
                 },
-                rigid_condition: "symmetric weak condition, kappa = eta0",
-                ghost_penalty: FLOW_GHOST_PENALTY,
-                stress_ghost_penalty: GHOST_PENALTY,
-                projection_ghost_penalty: PROJECTION_GHOST_PENALTY,
+                rigid_condition: if xfem {
+                    "symmetric weak condition, kappa = eta0".into()
+                } else {
+                    format!(
+                        "weak condition on a two-sided boundary: penalty only, kappa = \
+                         {FICTITIOUS_DOMAIN_PENALTY} eta0"
+                    )
+                },
+                ghost_penalty: ghost(FLOW_GHOST_PENALTY),
+                stress_ghost_penalty: ghost(GHOST_PENALTY),
+                projection_ghost_penalty: ghost(PROJECTION_GHOST_PENALTY),
             },
-            cut: CutSettings {
+            cut: xfem.then_some(CutSettings {
                 interface: match cut.interface {
                     InterfaceApprox::Quadratic => "parabolic",
                     InterfaceApprox::Linear => "linear",
                 },
                 quadtree_level: cut.level,
-            },
+            }),
             history_remap: match (polymer, n.remap) {
                 (false, _) => "none (no history)",
                 (true, HistoryRemap::Bilinear) => "bilinear",
@@ -318,8 +349,9 @@ mod tests {
         let c = case(serde_json::json!({ "mesh": [40, 10], "dt": 0.04, "t_end": 1.0 }));
         assert_eq!(cut_options(&c), CutOptions::default());
         let s = Settings::of(&c);
+        let cut = s.cut.expect("an XFEM case has a cut rule");
         assert_eq!(
-            (s.cut.interface, s.cut.quadtree_level),
+            (cut.interface, cut.quadtree_level),
             ("parabolic", crate::xfem::DEFAULT_LEVEL)
         );
         let thesis = case(serde_json::json!({
@@ -333,6 +365,23 @@ mod tests {
                 interface: InterfaceApprox::Linear
             }
         );
+    }
+
+    /// The fictitious domain method: no cut rule and no ghost penalty to show, its own condition.
+    #[test]
+    fn the_fictitious_domain_has_no_cut_rule() {
+        let c = case(serde_json::json!({
+            "mesh": [40, 10], "dt": 0.04, "t_end": 1.0, "method": "fdm"
+        }));
+        assert_eq!(discretization(&c), Discretization::FictitiousDomain);
+        let s = Settings::of(&c);
+        assert_eq!((s.method, s.cut.is_none()), ("fdm", true));
+        assert_eq!(
+            (s.flow.ghost_penalty, s.flow.stress_ghost_penalty),
+            (0.0, 0.0)
+        );
+        assert!(s.flow.rigid_condition.contains("penalty only"));
+        assert!(!s.to_toml().contains("[cut]"));
     }
 
     /// The stress coupling resolved from `auto`: explicit (LBLᵀ) with a solvent, semi-implicit

@@ -1,15 +1,59 @@
-//! From particle positions to per-element integration data for the flow and stress solvers:
-//! classification (fluid / cut / inside), fluid-part quadrature and particle-boundary quadrature
-//! of every element (thesis §2.3.2, §5.3.2), using the `xfem` geometry.
+//! From particle positions to per-element integration data for the flow and stress solvers, by
+//! the [`Discretization`] of the case (`numerics.method`), using the `xfem` geometry:
+//!
+//! - XFEM (thesis §2.3.2, §5.3.2): classification (fluid / cut / inside), fluid-part quadrature
+//!   of the cut elements by the cut rule, elements inside a particle removed;
+//! - the fictitious domain method (FDM, thesis §2.3.4): the particle interior is fluid, every
+//!   element is integrated whole with the standard rule, nothing is removed, and the elements
+//!   the particle circles cross carry their boundary pieces, on which the rigid-body motion is
+//!   imposed by the same weak condition ([`crate::solver::rigid`]). The fields (velocity,
+//!   pressure, G, the log-conformation and its projections) are then continuous into the
+//!   particles, as the thesis describes FDM ("the field variables change continuously from the
+//!   fluid domain to the rigid body").
+//!
+//! Every solver reads only the [`ElementCut`]s, so this is the one place where the two methods
+//! differ.
 
+use crate::fem::quadrature::gauss_quad;
 use crate::mesh::Mesh;
 use crate::solver::rigid::{
     BoundaryPoint, CutQuadrature as CutData, ElementCut, Particle, ParticleCut,
 };
 use crate::xfem::{
     CellLocation, Circle, CircleUnion, CutOptions, CutQuadrature, InterfaceOptions, InterfacePoint,
-    InterfaceQuadrature, Q2Element, XfemError,
+    InterfaceQuadrature, LevelSet, Q2Element, RefMap, XfemError,
 };
+
+/// How the particles enter the discretization (`numerics.method`): the thesis' XFEM and the
+/// fictitious domain method it is measured against (§2.3.4, Table 2.4).
+#[derive(Debug, Clone, Copy, PartialEq)]
+pub enum Discretization {
+    /// XFEM with this cut rule: cut elements integrated over their fluid part, elements inside
+    /// particles removed (their dofs fixed at zero).
+    Xfem(CutOptions),
+    /// The fictitious domain method: the particle interior is fluid, every element integrated
+    /// whole by the standard 3×3 Gauss rule, no dof removed.
+    FictitiousDomain,
+}
+
+impl Default for Discretization {
+    /// XFEM with the default cut rule.
+    fn default() -> Self {
+        Discretization::Xfem(CutOptions::default())
+    }
+}
+
+impl From<CutOptions> for Discretization {
+    /// XFEM with the cut rule `opts`.
+    fn from(opts: CutOptions) -> Self {
+        Discretization::Xfem(opts)
+    }
+}
+
+/// Gauss points per direction of the whole-element rule of the fictitious domain method: that of
+/// the solvers' uncut elements (the flow's and the transport's 3×3), so that an element crossed
+/// by a particle boundary is integrated exactly as one that is not.
+const WHOLE_ELEMENT_GAUSS: usize = 3;
 
 /// Errors of the cut-cell computation.
 #[derive(Debug, thiserror::Error)]
@@ -31,18 +75,65 @@ pub fn level_set(particles: &[Particle], period_x: Option<f64>) -> Result<Circle
     Ok(CircleUnion::new(circles, period_x)?)
 }
 
-/// Classifies every element of `mesh` against the particles and builds the fluid-part and
-/// boundary quadrature of the cut ones.
+/// The integration data of every element of `mesh` for the particles: with
+/// [`Discretization::Xfem`] each element is classified and the cut ones get their fluid-part and
+/// boundary quadrature; with [`Discretization::FictitiousDomain`] the elements the particle
+/// boundaries cross get the whole-element rule and their boundary quadrature, all others are
+/// fluid.
 pub fn compute_cuts(
     mesh: &Mesh,
     particles: &[Particle],
     period_x: Option<f64>,
-    opts: CutOptions,
+    method: impl Into<Discretization>,
 ) -> Result<Vec<ElementCut>, CutError> {
     if particles.is_empty() {
         return Ok(vec![ElementCut::Fluid; mesh.n_elements()]);
     }
     let ls = level_set(particles, period_x)?;
+    match method.into() {
+        Discretization::Xfem(opts) => xfem_cuts(mesh, &ls, opts),
+        Discretization::FictitiousDomain => fictitious_domain_cuts(mesh, &ls),
+    }
+}
+
+/// The fictitious domain method's elements: fluid, or whole with the boundary pieces of the
+/// circles that cross them (the interface quadrature along the exact arcs, as for XFEM).
+fn fictitious_domain_cuts(mesh: &Mesh, ls: &CircleUnion) -> Result<Vec<ElementCut>, CutError> {
+    let whole: Vec<([f64; 2], f64)> = {
+        let g = gauss_quad(WHOLE_ELEMENT_GAUSS);
+        g.points.into_iter().zip(g.weights).collect()
+    };
+    let mut iq = InterfaceQuadrature::new(InterfaceOptions::default())?;
+    let mut pts: Vec<InterfacePoint> = Vec::new();
+    let mut out = Vec::with_capacity(mesh.n_elements());
+    for e in 0..mesh.n_elements() {
+        let map = Q2Element {
+            nodes: mesh.element_coords[e],
+        };
+        // φ is 1-Lipschitz: no boundary within the element's image radius of its centre
+        let reach = map.image_radius([-1.0, -1.0], [1.0, 1.0]);
+        if ls.value(map.map([0.0, 0.0])).abs() >= reach {
+            out.push(ElementCut::Fluid);
+            continue;
+        }
+        pts.clear();
+        iq.points_into(&map, ls, &mut pts)?;
+        out.push(if pts.is_empty() {
+            ElementCut::Fluid
+        } else {
+            ElementCut::Cut(CutData {
+                vol: whole.clone(),
+                whole: true,
+                particles: group_by_image(&pts),
+            })
+        });
+    }
+    Ok(out)
+}
+
+/// XFEM's elements: classified by the cut rule `opts`, the cut ones with their fluid-part and
+/// boundary quadrature.
+fn xfem_cuts(mesh: &Mesh, ls: &CircleUnion, opts: CutOptions) -> Result<Vec<ElementCut>, CutError> {
     let mut cq = CutQuadrature::new(opts)?;
     let mut iq = InterfaceQuadrature::new(InterfaceOptions::default())?;
     let mut pts: Vec<InterfacePoint> = Vec::new();
@@ -51,12 +142,12 @@ pub fn compute_cuts(
         let map = Q2Element {
             nodes: mesh.element_coords[e],
         };
-        out.push(match cq.classify(&map, &ls) {
+        out.push(match cq.classify(&map, ls) {
             CellLocation::Fluid => ElementCut::Fluid,
             CellLocation::Particle => ElementCut::Inside,
             CellLocation::Cut(cell) => {
                 pts.clear();
-                iq.points_into(&map, &ls, &mut pts)?;
+                iq.points_into(&map, ls, &mut pts)?;
                 let vol = cell
                     .rule
                     .points
@@ -66,6 +157,7 @@ pub fn compute_cuts(
                     .collect();
                 ElementCut::Cut(CutData {
                     vol,
+                    whole: false,
                     particles: group_by_image(&pts),
                 })
             }
@@ -101,4 +193,49 @@ fn group_by_image(pts: &[InterfacePoint]) -> Vec<ParticleCut> {
         }
     }
     groups
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+    use crate::mesh::Axis;
+    use crate::solver::rigid::Motion;
+
+    /// The fictitious domain method's elements: nothing removed, the crossed ones whole with
+    /// the whole circle on them, the same boundary quadrature as XFEM's where both see it.
+    #[test]
+    fn the_fictitious_domain_integrates_every_element_whole() {
+        // the arcs partition the circle: its length to round-off (interface quadrature)
+        const ARC_ROUND_OFF: f64 = 1e-12;
+        let mesh = Mesh::rectangle(
+            Axis::uniform(-1.0, 1.0, 20),
+            Axis::uniform(-1.0, 1.0, 20),
+            false,
+        );
+        let particle = Particle {
+            center: [0.013, -0.021],
+            radius: 0.37,
+            motion: Motion::Free,
+        };
+        let fdm = compute_cuts(&mesh, &[particle], None, Discretization::FictitiousDomain).unwrap();
+        let xfem = compute_cuts(&mesh, &[particle], None, Discretization::default()).unwrap();
+        let mut length = 0.0;
+        for (f, x) in fdm.iter().zip(&xfem) {
+            match (f, x) {
+                (ElementCut::Inside, _) => panic!("the fictitious domain removes no element"),
+                (ElementCut::Cut(c), _) => {
+                    assert!(c.whole && c.vol.len() == WHOLE_ELEMENT_GAUSS.pow(2));
+                    length += c.particles[0].points.iter().map(|p| p.w).sum::<f64>();
+                }
+                (ElementCut::Fluid, _) => {}
+            }
+            if let (ElementCut::Cut(c), ElementCut::Cut(xc)) = (f, x) {
+                assert!(!xc.whole);
+                assert_eq!(c.particles, xc.particles, "the same boundary quadrature");
+            }
+        }
+        let circumference = 2.0 * std::f64::consts::PI * particle.radius;
+        assert!((length - circumference).abs() < ARC_ROUND_OFF * circumference);
+        assert!(xfem.iter().any(|c| matches!(c, ElementCut::Inside)));
+    }
 }

@@ -43,9 +43,11 @@ pub struct GhostFace {
     pub side: FaceSide,
 }
 
-/// The faces that get the ghost penalty for the given cuts (periodic neighbours included).
+/// The faces that get the ghost penalty for the given cuts (periodic neighbours included). An
+/// element integrated whole (the fictitious domain method) has no small fluid part to tie to its
+/// neighbours: only XFEM's cut cells count.
 pub fn ghost_faces(mesh: &Mesh, cuts: &[ElementCut]) -> Vec<GhostFace> {
-    let is_cut = |e: usize| matches!(cuts[e], ElementCut::Cut(_));
+    let is_cut = |e: usize| matches!(&cuts[e], ElementCut::Cut(c) if !c.whole);
     let inside = |e: usize| matches!(cuts[e], ElementCut::Inside);
     faces_where(mesh, |e, o| {
         !inside(e) && !inside(o) && (is_cut(e) || is_cut(o))

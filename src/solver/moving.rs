@@ -19,13 +19,12 @@ pub use crate::mesh::follow::FollowingMesh;
 use crate::mesh::{Axis, Mesh, Side};
 use crate::particles::{correct, deviation, extrapolate, Contact, RigidState, CONTACT_OVERLAP};
 use crate::solver::ale::{AleError, AleMap, Remap, RigidMove, TemporaryAle};
-use crate::solver::cutcells::{compute_cuts, CutError};
+use crate::solver::cutcells::{compute_cuts, CutError, Discretization};
 use crate::solver::rigid::{ElementCut, Motion, Particle};
 use crate::solver::viscoelastic::{
     FlowSolution, FlowState, HistoryMap, StepReport, ViscoelasticError, ViscoelasticFlow,
     ViscoelasticParams,
 };
-use crate::xfem::CutOptions;
 
 /// Steps of size `dt` to reach `t_end` (the end time counts as reached within round-off of
 /// t_end/dt).
@@ -182,7 +181,8 @@ pub struct MovingParticles<D: Confinement> {
     ale: TemporaryAle,
     radius: Vec<f64>,
     motion: Vec<Motion>,
-    cut: CutOptions,
+    /// XFEM with its cut rule, or the fictitious domain method.
+    method: Discretization,
     /// Xⁿ, Uⁿ, ωⁿ.
     cur: RigidState,
     /// Xⁿ⁻¹ (none before the first step).
@@ -209,8 +209,9 @@ impl<D: Confinement + Clone + 'static> MovingParticles<D> {
         x0: Vec<[f64; 2]>,
         radius: Vec<f64>,
         motion: Vec<Motion>,
-        cut: CutOptions,
+        method: impl Into<Discretization>,
     ) -> Result<Self, MovingError> {
+        let method = method.into();
         let (mesh, follow) = match mesh.into() {
             ComputationalMesh::Fixed(mesh) => (mesh, None),
             ComputationalMesh::Following(f) => {
@@ -229,7 +230,7 @@ impl<D: Confinement + Clone + 'static> MovingParticles<D> {
             )));
         }
         let particles = make_particles(&domain, &x0, &radius, &motion);
-        let cuts = compute_cuts(&mesh, &particles, domain.period(), cut)
+        let cuts = compute_cuts(&mesh, &particles, domain.period(), method)
             .map_err(|source| MovingError::Cut { step: 0, source })?;
         let ale = TemporaryAle::new(&mesh);
         let mut flow = ViscoelasticFlow::with_particles(mesh, params, particles, cuts)?;
@@ -246,7 +247,7 @@ impl<D: Confinement + Clone + 'static> MovingParticles<D> {
             ale,
             radius,
             motion,
-            cut,
+            method,
             cur,
             prev: None,
             fields_at: x0,
@@ -264,7 +265,7 @@ impl<D: Confinement + Clone + 'static> MovingParticles<D> {
         domain: D,
         x0: Vec<[f64; 2]>,
         radius: f64,
-        cut: CutOptions,
+        method: impl Into<Discretization>,
     ) -> Result<Self, MovingError> {
         let n = x0.len();
         Self::new(
@@ -274,7 +275,7 @@ impl<D: Confinement + Clone + 'static> MovingParticles<D> {
             x0,
             vec![radius; n],
             vec![Motion::Free; n],
-            cut,
+            method,
         )
     }
 
@@ -406,7 +407,7 @@ impl<D: Confinement + Clone + 'static> MovingParticles<D> {
         step: usize,
     ) -> Result<(Vec<Particle>, Vec<ElementCut>), MovingError> {
         let particles = make_particles(&self.domain, x_pred, &self.radius, &self.motion);
-        let cuts = compute_cuts(mesh, &particles, self.domain.period(), self.cut)
+        let cuts = compute_cuts(mesh, &particles, self.domain.period(), self.method)
             .map_err(|source| MovingError::Cut { step, source })?;
         Ok((particles, cuts))
     }
@@ -519,7 +520,7 @@ impl<D: Confinement + Clone + 'static> MovingParticles<D> {
             None => None,
         };
         let on = mesh.as_ref().unwrap_or(self.flow.mesh());
-        let cuts = compute_cuts(on, &particles, self.domain.period(), self.cut)
+        let cuts = compute_cuts(on, &particles, self.domain.period(), self.method)
             .map_err(|source| MovingError::Cut { step, source })?;
         let ale_mesh = match (&self.follow, cp.ale_axes) {
             (Some(f), Some((ax, ay))) => {

@@ -148,11 +148,7 @@ impl Stokes {
                     }
                     for (slot, pc) in cut.particles.iter().enumerate() {
                         dofs.extend((0..3).map(|c| lay.rigid(pc.particle, c)));
-                        let ce = CutElement {
-                            xe,
-                            vol: &cut.vol,
-                            bnd: &pc.points,
-                        };
+                        let ce = CutElement::of(xe, cut, pc);
                         let off = nd + 3 * slot;
                         weak_rigid_kernel(
                             ke,
@@ -164,7 +160,8 @@ impl Stokes {
                             self.params.kappa,
                             self.params.rigid_form,
                         );
-                        if let Some(ps) = stress {
+                        // the polymer consistency term: none on a two-sided boundary (FDM)
+                        if let Some(ps) = stress.filter(|_| !cut.whole) {
                             for bp in &pc.points {
                                 let (_, jac, det) = q2_map(xe, bp.xi);
                                 let (n2, dref) = q2(bp.xi);

@@ -37,11 +37,7 @@ impl Stokes {
                 let i = pc.particle;
                 // reaction: −(rigid rows of the weak-condition kernel) · x
                 ke.iter_mut().for_each(|v| *v = 0.0);
-                let ce = CutElement {
-                    xe,
-                    vol: &cut.vol,
-                    bnd: &pc.points,
-                };
+                let ce = CutElement::of(xe, cut, pc);
                 weak_rigid_kernel(
                     &mut ke,
                     nd + 3,

@@ -3,6 +3,7 @@
 
 use super::{ViscoelasticError, ViscoelasticFlow};
 use crate::solver::constitutive_stress::Coupling;
+use crate::solver::flow::StokesSolution;
 
 /// Flow-rate control of a periodic channel: Stokes flow is linear in the body force, and with the
 /// explicit coupling the flow matrix does not depend on the stress, so the flow of each step is
@@ -15,6 +16,7 @@ pub(super) struct FlowRateControl {
     unit_p: Vec<f64>,
     unit_flux: f64,
     unit_reaction: Vec<[f64; 3]>,
+    unit_traction: Vec<[f64; 3]>,
 }
 
 impl ViscoelasticFlow {
@@ -41,34 +43,36 @@ impl ViscoelasticFlow {
             unit_p: unit.p,
             unit_flux,
             unit_reaction: unit.reaction,
+            unit_traction: unit.stress_force,
         });
         Ok(())
     }
 
-    /// Adds the flow-rate correction f·(u₁, p₁) to a solution and returns f.
-    pub(super) fn control_flow_rate(
-        &self,
-        u: &mut [[f64; 2]],
-        p: &mut [f64],
-        reaction: &mut [[f64; 3]],
-    ) -> f64 {
+    /// Adds the flow-rate correction f·(u₁, p₁) to a solution (and to its particle reactions
+    /// and traction integrals, linear in it) and returns f.
+    pub(super) fn control_flow_rate(&self, sol: &mut StokesSolution) -> f64 {
         let Some(fr) = &self.flow_rate else {
             return 0.0;
         };
-        let f = (fr.target - self.mesh.flux_through_first_column(u)) / fr.unit_flux;
-        u.iter_mut().zip(&fr.unit_u).for_each(|(a, b)| {
+        let f = (fr.target - self.mesh.flux_through_first_column(&sol.u)) / fr.unit_flux;
+        sol.u.iter_mut().zip(&fr.unit_u).for_each(|(a, b)| {
             a[0] += f * b[0];
             a[1] += f * b[1];
         });
-        p.iter_mut().zip(&fr.unit_p).for_each(|(a, b)| *a += f * b);
-        reaction
+        sol.p
             .iter_mut()
-            .zip(&fr.unit_reaction)
-            .for_each(|(a, b)| {
+            .zip(&fr.unit_p)
+            .for_each(|(a, b)| *a += f * b);
+        for (forces, unit) in [
+            (&mut sol.reaction, &fr.unit_reaction),
+            (&mut sol.stress_force, &fr.unit_traction),
+        ] {
+            forces.iter_mut().zip(unit).for_each(|(a, b)| {
                 for c in 0..3 {
                     a[c] += f * b[c];
                 }
             });
+        }
         f
     }
 }

@@ -3,27 +3,56 @@
 use super::ViscoelasticFlow;
 use crate::rheology::Sym2;
 use crate::solver::constitutive_projection::{fluid_mean, sym_at, velocity_gradient_at};
-use crate::solver::rigid::ElementCut;
+use crate::solver::rigid::{fictitious_domain, ElementCut};
 
 impl ViscoelasticFlow {
-    /// Hydrodynamic force and torque on each particle: the weak-condition reaction of the last
-    /// flow solve (solvent stress, pressure and stabilization, consistent with the discrete
-    /// momentum balance) plus the polymer stress integral −∮ τ·n ds with the current τ. With
-    /// flow-rate control the mean pressure gradient's traction f·(particle area) is included.
+    /// Hydrodynamic force and torque on each particle as the rigid-body condition exerts it
+    /// (the K_L of thesis Eq. 2.57, see [`crate::solver::rigid`]): the weak-condition reaction of
+    /// the last flow solve (solvent stress, pressure and stabilization, consistent with the
+    /// discrete momentum balance), with XFEM plus the polymer stress integral −∮ τ·n ds with the
+    /// current τ (the polymer consistency term of the rigid rows) and, with flow-rate control,
+    /// the mean pressure gradient's traction f·(particle area). With the fictitious domain
+    /// method the reaction is the whole force: the condition carries the jump of the total
+    /// traction, and the body force on the interior fluid.
     pub fn particle_forces(&self) -> Vec<[f64; 3]> {
+        if fictitious_domain(&self.cuts) {
+            return self.reaction.clone();
+        }
         let mut out = self.polymer_forces();
         for (f, r) in out.iter_mut().zip(&self.reaction) {
             (0..3).for_each(|c| f[c] += r[c]);
         }
+        self.add_pressure_gradient(&mut out);
+        out
+    }
+
+    /// Hydrodynamic force and torque on each particle as the integral of the traction of the
+    /// discrete fields over its boundary (the K of thesis Eq. 2.55): −∮ σ(u_h, p_h)·n ds of the
+    /// last flow solve, the polymer part −∮ τ·n ds with the current τ and, with flow-rate
+    /// control, the mean pressure gradient's traction f·(particle area). With XFEM it differs
+    /// from [`particle_forces`](Self::particle_forces) by the stabilization's force; with the
+    /// fictitious domain method it sees the fields smeared across the boundary (the thesis: about
+    /// 60 % of the drag).
+    pub fn traction_forces(&self) -> Vec<[f64; 3]> {
+        let mut out = self.polymer_forces();
+        for (f, r) in out.iter_mut().zip(&self.traction) {
+            (0..3).for_each(|c| f[c] += r[c]);
+        }
+        self.add_pressure_gradient(&mut out);
+        out
+    }
+
+    /// With flow-rate control, the traction of the mean pressure gradient −f x on each particle:
+    /// f·(particle area) along x.
+    fn add_pressure_gradient(&self, out: &mut [[f64; 3]]) {
         if self.flow_rate.is_some() {
             for (f, p) in out.iter_mut().zip(self.stokes.particles()) {
                 f[0] += self.body_force * std::f64::consts::PI * p.radius * p.radius;
             }
         }
-        out
     }
 
-    /// The polymer part of [`particle_forces`](Self::particle_forces): force and torque
+    /// The polymer part of [`traction_forces`](Self::traction_forces): force and torque
     /// ∮ τ·n ds (n out of the particle) with the current projected conformation; its x component
     /// is the K of thesis §5.4.
     pub fn polymer_forces(&self) -> Vec<[f64; 3]> {

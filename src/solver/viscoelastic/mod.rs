@@ -65,6 +65,9 @@ pub struct ViscoelasticFlow {
     flow_rate: Option<FlowRateControl>,
     /// Weak-condition reaction (force x, y, torque) of each particle in the last flow solve.
     reaction: Vec<[f64; 3]>,
+    /// Traction integral −∫ σ(u_h, p_h)·n ds (solvent and pressure; n into the particle) of each
+    /// particle in the last flow solve.
+    traction: Vec<[f64; 3]>,
     /// Body force of the last flow solve (flow-rate control), 0 otherwise.
     body_force: f64,
     /// Whether each Q2 node lies in the fluid (the steady test ignores the extension values
@@ -153,6 +156,7 @@ impl ViscoelasticFlow {
             cuts,
             flow_rate: None,
             reaction: vec![[0.0; 3]; n_particles],
+            traction: vec![[0.0; 3]; n_particles],
             body_force: 0.0,
             fluid,
             params,
@@ -222,8 +226,9 @@ impl ViscoelasticFlow {
         let sol = self.stokes.solve(force);
         self.stokes.params.theta = theta;
         let mut sol = sol.map_err(|source| ViscoelasticError::Flow { step: 0, source })?;
-        self.body_force = self.control_flow_rate(&mut sol.u, &mut sol.p, &mut sol.reaction);
+        self.body_force = self.control_flow_rate(&mut sol);
         self.reaction = sol.reaction;
+        self.traction = sol.stress_force;
         self.rigid = sol.rigid;
         self.velocity = sol.u;
         self.pressure = sol.p;
@@ -289,8 +294,9 @@ impl ViscoelasticFlow {
             .stokes
             .solve_with(force, stress)
             .map_err(|source| ViscoelasticError::Flow { step, source })?;
-        self.body_force = self.control_flow_rate(&mut sol.u, &mut sol.p, &mut sol.reaction);
+        self.body_force = self.control_flow_rate(&mut sol);
         self.reaction = std::mem::take(&mut sol.reaction);
+        self.traction = std::mem::take(&mut sol.stress_force);
         self.rigid = std::mem::take(&mut sol.rigid);
         Ok(FlowSolution {
             step,
@@ -527,12 +533,14 @@ impl ViscoelasticFlow {
 }
 
 /// Whether each Q2 node lies in the fluid: not a node of an element inside a particle, and
-/// outside the particle images that cut its elements.
+/// outside the particle images that cut its elements. With the fictitious domain method
+/// (elements integrated whole) the particle interior is fluid: every node is.
 fn fluid_nodes(mesh: &Mesh, particles: &[Particle], cuts: &[ElementCut]) -> Vec<bool> {
     let mut fluid = vec![true; mesh.n_nodes()];
     for (e, cut) in cuts.iter().enumerate() {
         match cut {
             ElementCut::Fluid => {}
+            ElementCut::Cut(cut) if cut.whole => {}
             ElementCut::Inside => mesh.elements[e].iter().for_each(|&n| fluid[n] = false),
             ElementCut::Cut(cut) => {
                 for pc in &cut.particles {

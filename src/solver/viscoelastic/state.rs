@@ -30,6 +30,10 @@ pub struct FlowState {
     pub rigid: Vec<[f64; 3]>,
     /// Weak-condition reactions of the last flow solve.
     pub reaction: Vec<[f64; 3]>,
+    /// Traction integrals (solvent and pressure) of the last flow solve; absent in states saved
+    /// before they were kept (then zero until the next solve).
+    #[serde(default, skip_serializing_if = "Vec::is_empty")]
+    pub traction: Vec<[f64; 3]>,
     /// Body force of the last flow solve.
     pub body_force: f64,
 }
@@ -50,6 +54,7 @@ impl ViscoelasticFlow {
             time: self.time,
             rigid: self.rigid.clone(),
             reaction: self.reaction.clone(),
+            traction: self.traction.clone(),
             body_force: self.body_force,
         }
     }
@@ -137,6 +142,11 @@ impl ViscoelasticFlow {
         self.time = state.time;
         self.rigid = state.rigid;
         self.reaction = state.reaction;
+        self.traction = if state.traction.len() == np {
+            state.traction
+        } else {
+            vec![[0.0; 3]; np]
+        };
         self.body_force = state.body_force;
         self.mesh_velocity = None;
         self.started = true;

@@ -1,0 +1,93 @@
+//! The fictitious domain method (`numerics.method = "fdm"`, issue 23) on coarse meshes (fast):
+//! the drag of the rigid-body condition against XFEM's, the traction integral clearly below it
+//! (thesis §2.5.3), a free particle, and a moving-particle case through the one simulation path.
+//! The Table 2.4 study runs with `xpflow validate cylinder --method fdm` (docs/validation.md).
+
+use xpflow::config::CaseSpec;
+use xpflow::simulate::Simulation;
+use xpflow::solver::cutcells::Discretization;
+use xpflow::solver::rigid::WeakForm;
+use xpflow::validate::xstokes::{couette_free_particle, cylinder_drag, NEWTONIAN_K};
+
+#[test]
+fn the_condition_carries_the_drag_and_the_traction_integral_misses_much_of_it() {
+    // h = 0.1R (0.6 s each). Measured: XFEM K_L = 132.3584; FDM K_L = 132.2789 (−6.0e-4 of
+    // XFEM's), K = 66.65 (K/K_L = 0.504; the thesis' 0.61 on its mesh M3).
+    let xfem = cylinder_drag(0.1, WeakForm::Symmetric, Discretization::default()).unwrap();
+    let fdm = cylinder_drag(0.1, WeakForm::Symmetric, Discretization::FictitiousDomain).unwrap();
+    println!("{xfem:?}\n{fdm:?}");
+    // XFEM is the method the cases ran before: its drag is the published one (0.05 %)
+    assert!((xfem.k_reaction - NEWTONIAN_K).abs() / NEWTONIAN_K < 5e-4);
+    // FDM's K_L on the same mesh: the penalty leaves a slip O(h/κ) (−6e-4 here, −5e-3 at
+    // 0.2R, within 3e-4 from 0.05R down): 2e-3 fails the body force on the interior counted
+    // twice (+5 %) or the XFEM penalty κ = η0 (−29 %)
+    const K_L_TOL: f64 = 2e-3;
+    let rel = (fdm.k_reaction - xfem.k_reaction) / xfem.k_reaction;
+    assert!(
+        rel.abs() < K_L_TOL,
+        "FDM K_L {} ({rel:+.2e})",
+        fdm.k_reaction
+    );
+    // FDM's traction integral sees the fields smeared across the boundary: about half the drag
+    // on this mesh, 0.61 in the thesis; outside [0.4, 0.75] the fields are not smeared the way
+    // FDM smears them (XFEM's ratio is 1.0002)
+    let ratio = fdm.k_stress / fdm.k_reaction;
+    assert!((0.4..0.75).contains(&ratio), "FDM K/K_L = {ratio}");
+}
+
+#[test]
+fn a_free_particle_rotates_alike_with_both_methods() {
+    // 2a/H = 0.4, h = a/10. Measured: XFEM ω/γ̇ = −0.45109, FDM −0.45060 (1.1e-3 apart; the
+    // reference value 0.45109 of the boundary-fitted method). 2e-3: the penalty's slip
+    const REL_TOL: f64 = 2e-3;
+    // U vanishes by symmetry with either method (round-off of solve and quadrature)
+    const ZERO_TOL: f64 = 1e-8;
+    let xfem = couette_free_particle(0.4, WeakForm::Symmetric, Discretization::default()).unwrap();
+    let fdm =
+        couette_free_particle(0.4, WeakForm::Symmetric, Discretization::FictitiousDomain).unwrap();
+    println!("xfem {xfem:?}\nfdm {fdm:?}");
+    assert!(
+        fdm[0].abs() < ZERO_TOL && fdm[1].abs() < ZERO_TOL,
+        "{fdm:?}"
+    );
+    assert!(
+        ((fdm[2] - xfem[2]) / xfem[2]).abs() < REL_TOL,
+        "{fdm:?} vs {xfem:?}"
+    );
+}
+
+/// The Giesekus confined-shear case of the thesis §5.6.3 fluid on a coarse mesh, with `method`.
+fn shear_case(method: &str) -> CaseSpec {
+    CaseSpec::from_value(serde_json::json!({
+        "geometry": { "confined_shear": { "h": 1.0, "l": 4.0 } },
+        "fluid": { "model": "giesekus", "wi": 1.0, "alpha": 0.01, "beta": 0.1 },
+        "particles": { "radius": 0.1, "layout": { "explicit": { "positions": [[0.0, 0.2]] } } },
+        "numerics": { "mesh": [40, 10], "dt": 0.02, "t_end": 0.1, "method": method },
+    }))
+    .unwrap()
+}
+
+#[test]
+fn a_moving_particle_case_runs_with_the_fictitious_domain_method() {
+    let run = |method: &str| {
+        let case = shear_case(method);
+        let mut sim = Simulation::new(&case).unwrap();
+        for _ in 0..5 {
+            sim.step().unwrap();
+        }
+        (sim.settings().method, sim.sample().particles[0])
+    };
+    let (xm, x) = run("xfem");
+    let (fm, f) = run("fdm");
+    println!("xfem {x:?}\nfdm {f:?}");
+    assert_eq!((xm, fm), ("xfem", "fdm"));
+    // the particle moves with the upper wall and rotates clockwise with either method; ω* of
+    // the two within 5 % on this coarse mesh (h = a: measured 0.4502
+    // against 0.4624 after 5 steps, −2.6 %)
+    const OMEGA_TOL: f64 = 0.05;
+    assert!(f.u > 0.0 && f.omega > 0.3 && f.omega < 0.6, "{f:?}");
+    assert!(
+        ((f.omega - x.omega) / x.omega).abs() < OMEGA_TOL,
+        "{f:?} vs {x:?}"
+    );
+}
