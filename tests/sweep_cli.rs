@@ -176,6 +176,41 @@ fn unsupported_cases_exit_2_and_write_nothing() {
     assert!(!db.exists());
 }
 
+/// `--dry-run --estimate`: before the sweep every case is "not run" and nothing is created;
+/// after it the database's cases are done and nothing is left (the database is only read).
+#[test]
+fn the_estimate_reads_what_the_database_has_done() {
+    let dir = scratch("estimate");
+    let file = dir.join("s.toml");
+    std::fs::write(&file, GOOD).unwrap();
+    let db = dir.join("r.db");
+    let estimate = || {
+        let mut a = args(&file, &db);
+        a.dry_run = true;
+        a.estimate = true;
+        let mut out = Vec::new();
+        let runner = FakeRunner::new(|_| FakeBehaviour::Produce(OutcomeKind::Repel));
+        assert_eq!(
+            run_sweep_with(&a, &runner, &mut out).unwrap(),
+            ExitCode::SUCCESS
+        );
+        String::from_utf8(out).unwrap()
+    };
+    let before = estimate();
+    assert_eq!(before.matches("not run").count(), 2, "{before}");
+    assert!(before.contains("for 2 cases"), "{before}");
+    assert!(!db.exists(), "an estimate creates no database");
+    let runner = FakeRunner::new(|_| FakeBehaviour::Produce(OutcomeKind::Repel));
+    run_sweep_with(&args(&file, &db), &runner, &mut Vec::new()).unwrap();
+    let after = estimate();
+    let done = after
+        .lines()
+        .filter(|l| l.trim_end().ends_with(" done"))
+        .count();
+    assert_eq!(done, 2, "{after}");
+    assert!(after.contains(", 0.0 of them not done yet"), "{after}");
+}
+
 #[test]
 fn sweep_then_query_and_status() {
     let dir = scratch("query");

@@ -50,6 +50,7 @@ pub fn sweep_args(file: &Path, db: &Path) -> xpflow::cli::sweep_cmds::SweepArgs 
         jobs: Some(2),
         dry_run: false,
         resolved: false,
+        estimate: false,
         quiet: true,
         retry_failed: false,
         state_every: 5.0,
