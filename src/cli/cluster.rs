@@ -9,7 +9,7 @@ use std::path::{Path, PathBuf};
 use std::process::ExitCode;
 
 use super::sweep_cmds::{at_least_one, invalid, minutes, SweepArgs, EXIT_INVALID};
-use crate::config::{CaseSpec, PlannedCase, SweepSpec};
+use crate::config::{PlannedCase, SweepSpec};
 use crate::store::merge::{MergeError, Merged};
 use crate::store::shard::{shard_cases, shard_files};
 use crate::store::{Format, Store, Table};
@@ -143,14 +143,7 @@ pub(super) fn sweep_slurm(
         .filter(|(_, st)| st == "done")
         .map(|(h, _)| h)
         .collect();
-    let finished: Vec<(CaseSpec, f64, u64)> = store
-        .finished_timings()?
-        .into_iter()
-        .filter_map(|(json, wall, steps)| {
-            let spec = CaseSpec::from_value(serde_json::from_str(&json).ok()?).ok()?;
-            Some((spec, wall, steps))
-        })
-        .collect();
+    let finished = slurm::estimate::finished_cases(&store)?;
     drop(store);
     let queue = sub.queue();
     let plan = slurm::plan(&sub, cases, &done, queue.as_deref());

@@ -96,12 +96,7 @@ pub(super) fn validate_cylinder(
             (k - pk) / pk
         );
     }
-    println!("verdict: {}", if ok { "PASS" } else { "FAIL" });
-    Ok(if ok {
-        ExitCode::SUCCESS
-    } else {
-        ExitCode::FAILURE
-    })
+    Ok(super::validate::verdict(ok))
 }
 
 /// The K(t) history and τ_xx along the surface and the wake of a viscoelastic run, as CSV.

@@ -14,7 +14,7 @@ use std::path::Path;
 
 use crate::config::{CaseSpec, PlannedCase};
 use crate::store::{Format, Store, Table};
-use crate::sweep::slurm::estimate::{case_seconds, Rate};
+use crate::sweep::slurm::estimate::{case_seconds, finished_cases, Rate};
 
 /// What the database already knows: each case's status and the finished cases' timings.
 struct Known {
@@ -33,14 +33,7 @@ fn known(db: &Path) -> anyhow::Result<Known> {
     }
     let store = Store::open_read_only(db)?;
     k.status = store.statuses()?.into_iter().collect();
-    k.finished = store
-        .finished_timings()?
-        .into_iter()
-        .filter_map(|(json, wall, steps)| {
-            let spec = CaseSpec::from_value(serde_json::from_str(&json).ok()?).ok()?;
-            Some((spec, wall, steps))
-        })
-        .collect();
+    k.finished = finished_cases(&store)?;
     Ok(k)
 }
 

@@ -266,12 +266,17 @@ pub(super) fn validate_particles(
             unreachable!("handled by validate and cylinder::validate_cylinder")
         }
     }
+    Ok(verdict(ok))
+}
+
+/// Prints a study's `verdict: PASS` / `FAIL` line and returns its exit code.
+pub(super) fn verdict(ok: bool) -> ExitCode {
     println!("verdict: {}", if ok { "PASS" } else { "FAIL" });
-    Ok(if ok {
+    if ok {
         ExitCode::SUCCESS
     } else {
         ExitCode::FAILURE
-    })
+    }
 }
 
 /// Prints the runs of a frame comparison as a markdown table (every `every`-th sample, the two

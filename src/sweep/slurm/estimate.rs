@@ -5,6 +5,7 @@
 //! docs/performance.md — times the case's steps, elements and [`CaseSpec::step_cost`].
 
 use crate::config::{CaseSpec, PlannedCase};
+use crate::store::Store;
 
 /// Seconds per element and step of an explicit viscoelastic step without a band: `xpflow bench
 /// moving --mesh 440x110 --particles 3` took 2.457 s per step on 48 400 elements
@@ -69,6 +70,22 @@ impl Rate {
             ),
         }
     }
+}
+
+/// The finished cases of `store` that took steps, as (case, wall seconds, steps): what
+/// [`Rate::from_finished`] measures (a case whose stored JSON no longer parses is left out).
+///
+/// # Errors
+/// A failed read of the database.
+pub fn finished_cases(store: &Store) -> crate::store::Result<Vec<(CaseSpec, f64, u64)>> {
+    Ok(store
+        .finished_timings()?
+        .into_iter()
+        .filter_map(|(json, wall, steps)| {
+            let spec = CaseSpec::from_value(serde_json::from_str(&json).ok()?).ok()?;
+            Some((spec, wall, steps))
+        })
+        .collect())
 }
 
 /// Memory of the largest case, in MB (rounded up).
