@@ -315,3 +315,112 @@ fn sweep_then_query_and_status() {
     let cells: Vec<&str> = row.split_whitespace().collect();
     assert_eq!(&cells[1..], ["cli", "2", "2", "0", "0", "0"], "{status}");
 }
+
+/// `xpflow export`: the finished cases (done and failed) with their outcomes whole and their
+/// trajectories thinned to at most `--samples` steps (first and last kept); the source is not
+/// written to; an existing destination, an unknown sweep and too few samples exit 2.
+#[test]
+fn export_ships_the_finished_cases_thinned() {
+    use xpflow::cli::export::{run_export_to, ExportArgs};
+    let dir = scratch("export");
+    let file = dir.join("s.toml");
+    std::fs::write(
+        &file,
+        GOOD.replace("fluid.wi = [1, 2]", "fluid.wi = [1, 2, 3]"),
+    )
+    .unwrap();
+    let db = dir.join("r.db");
+    let runner = FakeRunner::new(|s| match s.fluid.wi {
+        w if w > 2.5 => FakeBehaviour::Fail("fake".into()),
+        w if w > 1.5 => FakeBehaviour::Produce(OutcomeKind::String),
+        _ => FakeBehaviour::Produce(OutcomeKind::Repel),
+    });
+    run_sweep_with(&args(&file, &db), &runner, &mut Vec::new()).unwrap();
+    let source_bytes = std::fs::read(&db).unwrap();
+    let conn = |p: &Path| {
+        rusqlite::Connection::open_with_flags(p, rusqlite::OpenFlags::SQLITE_OPEN_READ_ONLY)
+            .unwrap()
+    };
+    let steps = |p: &Path| -> Vec<(String, i64, i64, i64)> {
+        conn(p)
+            .prepare(
+                "SELECT c.case_hash, COUNT(DISTINCT s.step), MIN(s.step), MAX(s.step)
+                 FROM cases c JOIN samples s ON s.case_id = c.id GROUP BY c.id ORDER BY c.case_hash",
+            )
+            .unwrap()
+            .query_map([], |r| Ok((r.get(0)?, r.get(1)?, r.get(2)?, r.get(3)?)))
+            .unwrap()
+            .map(|r| r.unwrap())
+            .collect()
+    };
+    let export = |out: &Path, sweep: Vec<String>, thin: bool, samples: usize| {
+        let a = ExportArgs {
+            db: db.clone(),
+            out: out.to_path_buf(),
+            sweep,
+            thin,
+            samples,
+        };
+        let mut text = Vec::new();
+        let code = run_export_to(&a, &mut text).unwrap();
+        (code, String::from_utf8(text).unwrap())
+    };
+    let thin = dir.join("thin.db");
+    let (code, text) = export(&thin, vec![], true, 5);
+    assert_eq!(code, ExitCode::SUCCESS, "{text}");
+    assert!(text.contains("exported 3 cases of 1 sweep"), "{text}");
+    let (full, thinned) = (steps(&db), steps(&thin));
+    assert_eq!(full.len(), thinned.len());
+    for (f, t) in full.iter().zip(&thinned) {
+        assert_eq!(
+            (&f.0, f.2, f.3),
+            (&t.0, t.2, t.3),
+            "first and last step kept"
+        );
+        assert_eq!(t.1, f.1.min(5), "at most 5 sampled steps of {}", f.1);
+    }
+    assert!(
+        full.iter().any(|f| f.1 > 5),
+        "the fake trajectories are longer than 5"
+    );
+    // outcomes, statuses and tables as in the source
+    let table = |p: &Path| {
+        let a = QueryArgs {
+            what: QueryWhat::Cases,
+            db: p.to_path_buf(),
+            sweep: None,
+            filters: vec![],
+            case: None,
+            by: "r0".into(),
+            format: Format::Csv,
+        };
+        let mut out = Vec::new();
+        run_query_to(&a, &mut out).unwrap();
+        String::from_utf8(out).unwrap()
+    };
+    assert_eq!(table(&db), table(&thin));
+    assert!(table(&thin).contains("failed"));
+    // whole trajectories without --thin; the source untouched
+    let whole = dir.join("whole.db");
+    assert_eq!(
+        export(&whole, vec!["cli".into()], false, 500).0,
+        ExitCode::SUCCESS
+    );
+    assert_eq!(steps(&whole), full);
+    assert_eq!(
+        std::fs::read(&db).unwrap(),
+        source_bytes,
+        "a reader never writes"
+    );
+    // refusals
+    assert_eq!(export(&thin, vec![], true, 5).0, ExitCode::from(2));
+    assert_eq!(
+        export(&dir.join("x.db"), vec!["nope".into()], true, 5).0,
+        ExitCode::from(2)
+    );
+    assert_eq!(
+        export(&dir.join("y.db"), vec![], true, 1).0,
+        ExitCode::from(2)
+    );
+    assert!(!dir.join("x.db").exists() && !dir.join("y.db").exists());
+}

@@ -39,6 +39,9 @@ pub enum Command {
     /// Fold the shards of a cluster submission into the sweep's database (one transaction per
     /// shard; merging again is a no-op).
     Merge(super::cluster::MergeArgs),
+    /// Copy the finished cases of a results database into a new compact one (a dataset to ship:
+    /// `--thin` keeps at most `--samples` sampled steps per case; no snapshots).
+    Export(super::export::ExportArgs),
     /// Run a validation study and print its numbers and verdict.
     Validate {
         /// Which study.

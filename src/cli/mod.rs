@@ -6,6 +6,7 @@ mod bench;
 pub mod cluster;
 mod cylinder;
 mod estimate;
+pub mod export;
 mod run;
 mod search_cmds;
 pub mod sweep_cmds;
@@ -29,6 +30,7 @@ pub fn run(cli: Cli) -> anyhow::Result<ExitCode> {
         Command::Status(args) => sweep_cmds::run_status(&args),
         Command::RunCase(args) => cluster::run_case(&args),
         Command::Merge(args) => cluster::merge(&args),
+        Command::Export(args) => export::run_export(&args),
         Command::Validate {
             study,
             levels,

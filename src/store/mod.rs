@@ -9,6 +9,7 @@
 //! up front instead of failing to upgrade a read lock.
 
 pub mod cases;
+pub mod export;
 pub mod merge;
 mod open;
 mod outcomes;
