@@ -67,11 +67,18 @@ bench: build
 	$(BIN) bench moving --mesh 200x50 --particles 1,6,9
 
 # Figures and tables from results databases (plotting/, docs/figures.md): `make figures` plots every
-# results/*.db, `make figures DB=results/demo.db` one (or several, space-separated) into results/figures/<db>/.
+# results/*.db, `make figures DB=results/demo.db` one (or several, space-separated) into results/figures/<db>/,
+# `make figures DATA=data/thesis` every database of a shipped dataset into data/thesis/figures/<db>/
+# (docs/reproduction.md; the databases are made by `xpflow export --thin`).
 # figures-deps makes the Python virtual environment .venv/ with plotting/requirements.txt (reinstalled when
 # that file changes); it needs python3 >= 3.11 with venv/pip (installs Debian's python3-venv if missing).
 DB      ?=
+DATA    ?=
 VENV    := .venv
+ifneq ($(DATA),)
+DB      := $(wildcard $(DATA)/*.db)
+FIG_OUT ?= $(DATA)/figures
+endif
 FIG_OUT ?= results/figures
 
 .PHONY: figures-deps
@@ -91,6 +98,9 @@ $(VENV)/.requirements-installed: plotting/requirements.txt
 	@touch $@
 
 figures: figures-deps
+ifneq ($(DATA),)
+	@test -n "$(DB)" || { echo "figures: no *.db in $(DATA)" >&2; exit 2; }
+endif
 	$(VENV)/bin/python plotting/make_figures.py --out $(FIG_OUT) $(DB)
 
 clean-results:

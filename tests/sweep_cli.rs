@@ -38,8 +38,12 @@ fluid.wi = [1, 2]
 fn example_sweeps_pass_dry_run() {
     let dir = Path::new(env!("CARGO_MANIFEST_DIR")).join("sweeps");
     let mut n = 0;
-    for entry in std::fs::read_dir(&dir).unwrap() {
-        let path = entry.unwrap().path();
+    // sweeps/ and its study directories (sweeps/thesis/)
+    let mut files: Vec<std::path::PathBuf> = Vec::new();
+    for d in [dir.clone(), dir.join("thesis")] {
+        files.extend(std::fs::read_dir(&d).unwrap().map(|e| e.unwrap().path()));
+    }
+    for path in files {
         if path.extension().is_some_and(|e| e == "toml") {
             let mut out = Vec::new();
             let mut a = args(&path, Path::new("/nonexistent/never.db"));
