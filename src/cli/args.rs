@@ -172,6 +172,11 @@ pub enum Study {
     /// cylinder approaching a wall, gaps 0.5a … 0.01a, against the lubrication asymptote, on the
     /// element sizes `--h` (units of a; default 0.2,0.1,0.05).
     NearContact,
+    /// Newtonian extrudate swell (thesis §6.4, Table 6.3, De = 0): the free surface immersed in
+    /// the fixed mesh moved by the kinematic equation to steady state; `swell = <H_max/H0>` per
+    /// element size `--h` (default 0.1,0.05,0.025; Δt = 0.05 up to t = 40), the extrapolation
+    /// and the verdict against the published 1.188; the profiles as CSV in `--out`.
+    ExtrudateSwell,
 }
 
 /// Benchmarks.

@@ -7,6 +7,7 @@ pub mod cluster;
 mod cylinder;
 mod estimate;
 pub mod export;
+mod extrudate;
 mod run;
 mod search_cmds;
 pub mod sweep_cmds;
@@ -48,6 +49,10 @@ pub fn run(cli: Cli) -> anyhow::Result<ExitCode> {
                 anyhow::bail!("--method fdm applies to `xpflow validate cylinder` only")
             }
             Study::StokesMms | Study::Couette => validate::validate(study, levels, solver.into()),
+            Study::ExtrudateSwell => extrudate::validate_extrudate_swell(
+                &h.unwrap_or_else(|| validate::default_meshes(study, wi)),
+                &out,
+            ),
             Study::Cylinder => cylinder::validate_cylinder(
                 wi,
                 &h.unwrap_or_else(|| validate::default_meshes(study, wi)),

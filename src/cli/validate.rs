@@ -262,8 +262,8 @@ pub(super) fn validate_particles(
             println!("tolerance (following mesh): {COUETTE_FOLLOW_TOL}");
         }
         Study::NearContact => ok &= near_contact(hs, cut)?,
-        Study::StokesMms | Study::Couette | Study::Cylinder => {
-            unreachable!("handled by validate and cylinder::validate_cylinder")
+        Study::StokesMms | Study::Couette | Study::Cylinder | Study::ExtrudateSwell => {
+            unreachable!("handled by validate, cylinder::validate_cylinder and extrudate")
         }
     }
     Ok(verdict(ok))
@@ -326,6 +326,8 @@ pub(super) fn default_meshes(study: Study, wi: f64) -> Vec<f64> {
         Vec::new()
     } else if study == Study::NearContact {
         vec![0.2, 0.1, 0.05]
+    } else if study == Study::ExtrudateSwell {
+        vec![0.1, 0.05, 0.025]
     } else if wi == 0.0 {
         vec![0.1, 0.05, 0.03]
     } else if wi <= 0.45 {

@@ -2,8 +2,9 @@
 //! cylinder rotating counter-clockwise at ω̄, outer cylinder at rest ([`CouetteGeometry`]), and
 //! the same cell seen from a frame rotating about its axis ([`RotatingCouette`]).
 //!
-//! Scales: the characteristic shear rate is γ̇ = ω̄ R1/(R2 − R1) (so that Wi = λγ̇), with
-//! t* = tγ̇ and ω* = ω/γ̇; the radial position is r* = (r − R1)/(R2 − R1). The undisturbed flow is
+//! Scales: the characteristic shear rate is γ̇ = ω̄ R1/(R2 − R1) (so that Wi = λγ̇); times and
+//! rotation rates are reported in units of ω̄ as in the thesis (t* = tω̄, ω* = ω/ω̄: the stored
+//! `omega_star` and the figures); the radial position is r* = (r − R1)/(R2 − R1). The undisturbed flow is
 //! u_θ(r) = A r + B/r, A = −ω̄ R1²/(R2² − R1²), B = ω̄ R1² R2²/(R2² − R1²), with the uniform vorticity
 //! 2A.
 
@@ -71,7 +72,8 @@ impl CouetteGeometry {
         self.r2 - self.r1
     }
 
-    /// Characteristic shear rate γ̇ = |ω̄| R1/(R2 − R1): t* = tγ̇, ω* = ω/γ̇, Wi = λγ̇.
+    /// Characteristic shear rate γ̇ = |ω̄| R1/(R2 − R1): Wi = λγ̇ (and the steady test's time scale;
+    /// results are reported in units of ω̄, see the module).
     pub fn shear_rate(&self) -> f64 {
         self.omega.abs() * self.r1 / self.gap()
     }

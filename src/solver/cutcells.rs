@@ -166,6 +166,41 @@ fn xfem_cuts(mesh: &Mesh, ls: &CircleUnion, opts: CutOptions) -> Result<Vec<Elem
     Ok(out)
 }
 
+/// The elements of `mesh` for a fluid bounded by the zero level of `ls` without boundary terms
+/// (a stress-free surface: the traction condition is natural), by XFEM's cut rule `opts`:
+/// fluid, cut (fluid-part quadrature, no particle pieces) or outside the fluid (removed). The
+/// free surface of an extrudate (thesis §6.3.2: the level set ζ = H(x, t) − y, the same
+/// quadtree and rules as for particles).
+pub fn surface_cuts<L: LevelSet + ?Sized>(
+    mesh: &Mesh,
+    ls: &L,
+    opts: CutOptions,
+) -> Result<Vec<ElementCut>, CutError> {
+    let mut cq = CutQuadrature::new(opts)?;
+    Ok((0..mesh.n_elements())
+        .map(|e| {
+            let map = Q2Element {
+                nodes: mesh.element_coords[e],
+            };
+            match cq.classify(&map, ls) {
+                CellLocation::Fluid => ElementCut::Fluid,
+                CellLocation::Particle => ElementCut::Inside,
+                CellLocation::Cut(cell) => ElementCut::Cut(CutData {
+                    vol: cell
+                        .rule
+                        .points
+                        .iter()
+                        .copied()
+                        .zip(cell.rule.weights.iter().copied())
+                        .collect(),
+                    whole: false,
+                    particles: Vec::new(),
+                }),
+            }
+        })
+        .collect())
+}
+
 /// Groups boundary points by particle and periodic image (centre = x − arm).
 fn group_by_image(pts: &[InterfacePoint]) -> Vec<ParticleCut> {
     // Same-image test: centres of different images differ by a period, far above round-off.

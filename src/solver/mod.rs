@@ -7,6 +7,7 @@ pub mod constitutive_projection;
 pub mod constitutive_stress;
 pub mod cutcells;
 pub mod flow;
+pub mod free_surface;
 pub mod ghost;
 pub mod log_conformation_history;
 pub mod moving;

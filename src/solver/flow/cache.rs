@@ -6,6 +6,7 @@ use std::collections::HashMap;
 
 use super::dofs::{element_dofs, MAX_EL_DOFS};
 use super::kernels::{fluid_element_matrix, shape_table};
+use super::pattern::Reach;
 use super::Stokes;
 use crate::mesh::bounding_box;
 
@@ -21,10 +22,10 @@ use crate::mesh::bounding_box;
 pub(super) const MOVING_MARGIN: usize = 4;
 
 /// Whether element `e`'s matrix is assembled every step rather than cached in the fluid base:
-/// it lies in some particle's reach (it may be cut while the pattern lasts) or in the
+/// it lies in the reach of a particle or a free surface (it may be cut while the pattern lasts) or in the
 /// moving-element mask (its coordinates may change).
-pub(super) fn assembled_each_step(reach: &[Vec<bool>], moving: &[bool], e: usize) -> bool {
-    moving[e] || reach.iter().any(|r| r[e])
+pub(super) fn assembled_each_step(reach: &Reach, moving: &[bool], e: usize) -> bool {
+    moving[e] || reach.contains(e)
 }
 
 /// The elements of `marked` (numbered `ey·nx + ex`, `dims` = (nx, ny)) widened by `margin`

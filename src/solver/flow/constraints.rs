@@ -8,6 +8,40 @@ use crate::solver::rigid::{ElementCut, Motion};
 /// A wall velocity x ↦ u(x) of [`Stokes::set_velocity`], kept to re-evaluate it on a moved mesh.
 pub(super) type WallVelocity = Box<dyn Fn([f64; 2]) -> [f64; 2] + Send + Sync>;
 
+/// Velocity components prescribed at nodes chosen by position ([`Stokes::set_velocity_where`]):
+/// x ↦ [u_x, u_y], `None` where a component is free.
+pub(super) type NodeVelocity = Box<dyn Fn([f64; 2]) -> [Option<f64>; 2] + Send + Sync>;
+
+/// A velocity condition as given, kept to re-evaluate it on a moved mesh.
+pub(super) enum VelocityCondition {
+    /// Both components on a side of the mesh.
+    Side(Side, WallVelocity),
+    /// Components at the nodes a function chooses (interior lines such as a die wall, one
+    /// component on a symmetry line).
+    Nodes(NodeVelocity),
+}
+
+/// Appends the (dof, value) pairs of a velocity condition.
+pub(super) fn push_condition_values(
+    mesh: &Mesh,
+    layout: &Layout,
+    condition: &VelocityCondition,
+    out: &mut Vec<(usize, f64)>,
+) {
+    match condition {
+        VelocityCondition::Side(side, f) => push_wall_values(mesh, layout, *side, f, out),
+        VelocityCondition::Nodes(f) => {
+            for (k, x) in mesh.nodes.iter().enumerate() {
+                for (c, v) in f(*x).iter().enumerate() {
+                    if let Some(v) = v {
+                        out.push((layout.u(k, c), *v));
+                    }
+                }
+            }
+        }
+    }
+}
+
 /// Appends the (dof, value) pairs of the velocity `f` at the nodes of `side`.
 pub(super) fn push_wall_values(
     mesh: &Mesh,
@@ -76,12 +110,27 @@ impl Stokes {
         side: Side,
         f: impl Fn([f64; 2]) -> [f64; 2] + Send + Sync + 'static,
     ) {
+        self.add_condition(VelocityCondition::Side(side, Box::new(f)));
+    }
+
+    /// Prescribes velocity components at the nodes `f` chooses: `f(x)` gives [u_x, u_y] with
+    /// `None` for a free component (e.g. a no-slip line inside the mesh, or u_y = 0 alone on a
+    /// symmetry line). Kept and re-evaluated as [`set_velocity`](Self::set_velocity) is; a later
+    /// condition wins where two prescribe the same component.
+    pub fn set_velocity_where(
+        &mut self,
+        f: impl Fn([f64; 2]) -> [Option<f64>; 2] + Send + Sync + 'static,
+    ) {
+        self.add_condition(VelocityCondition::Nodes(Box::new(f)));
+    }
+
+    fn add_condition(&mut self, condition: VelocityCondition) {
         let start = self.wall_values.len();
-        push_wall_values(&self.mesh, &self.layout, side, &f, &mut self.wall_values);
+        push_condition_values(&self.mesh, &self.layout, &condition, &mut self.wall_values);
         for &(dof, v) in &self.wall_values[start..] {
             self.fixed[dof] = Some(v);
         }
-        self.walls.push((side, Box::new(f)));
+        self.walls.push(condition);
     }
 
     /// Pins the pressure at vertex 0 (for flows with velocity prescribed on the whole boundary).

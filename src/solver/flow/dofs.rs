@@ -2,7 +2,6 @@
 //! velocities), the local dof list of an element, and the node blocks and nested-dissection
 //! order handed to the LBLᵀ factorization.
 
-use super::pattern::patched_face;
 use super::Stokes;
 use crate::fem::linsolve::DofBlocks;
 use crate::mesh::Mesh;
@@ -88,7 +87,7 @@ impl Stokes {
         // (its separators must also cut the pattern's ghost-penalty patches)
         let mut order: Vec<u32> = self
             .mesh
-            .nested_dissection(ND_LEAF, &|e, o| patched_face(&self.reach, e, o))
+            .nested_dissection(ND_LEAF, &|e, o| self.reach.patched_face(e, o))
             .into_iter()
             .map(|k| k as u32)
             .collect();

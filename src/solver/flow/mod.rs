@@ -39,15 +39,15 @@ use std::collections::HashMap;
 use std::time::Instant;
 
 use cache::{dilate, RectangleMatrices, MOVING_MARGIN};
-use constraints::{push_wall_values, WallVelocity};
-use pattern::{build_pattern, reach_covers, reach_for};
+use constraints::{push_condition_values, VelocityCondition};
+use pattern::{build_pattern, reach_for, Reach};
 
 use crate::fem::element::{q1, q2_map};
 use crate::fem::linsolve::{DirectSolver, SolveError, SolverKind};
 use crate::fem::quadrature::{gauss_quad, QuadRule};
 use crate::fem::sparse::SparseMatrix;
 use crate::fem::substructure::Substructured;
-use crate::mesh::{Mesh, Side};
+use crate::mesh::Mesh;
 use crate::solver::polymer_terms::PolymerStress;
 use crate::solver::rigid::{ElementCut, Particle, WeakForm};
 
@@ -155,7 +155,7 @@ pub struct Stokes {
     /// the particles move.
     wall_values: Vec<(usize, f64)>,
     /// The wall velocities as given, in call order, re-evaluated on a moved mesh.
-    walls: Vec<(Side, WallVelocity)>,
+    walls: Vec<VelocityCondition>,
     pressure_pinned: bool,
     solver: Option<DirectSolver>,
     factored_values: Option<Vec<f64>>,
@@ -177,8 +177,8 @@ pub struct Stokes {
     rule: QuadRule,
     particles: Vec<Particle>,
     cuts: Vec<ElementCut>,
-    /// Per particle, the elements coupled to its rigid-body unknowns in the pattern.
-    reach: Vec<Vec<bool>>,
+    /// Where the matrix may change while the pattern lasts (particles' reach, free-surface band).
+    reach: Reach,
     /// Matrix values of the elements outside every particle's reach (fluid while the pattern
     /// lasts) and outside `moving`, without stress or constraints, and the (η, θ) they were
     /// built with: with no stress in the matrix (explicit coupling) a step starts from them and
@@ -281,7 +281,7 @@ impl Stokes {
         );
         self.particles = particles;
         self.cuts = cuts;
-        if !reach_covers(&self.reach, &self.cuts) {
+        if !self.reach.covers(&self.cuts) {
             self.reach = reach_for(&self.mesh, &self.particles, &self.cuts);
             self.matrix = build_pattern(&self.mesh, &self.layout, &self.reach);
             self.solver = None;
@@ -340,8 +340,8 @@ impl Stokes {
         self.mesh = mesh;
         self.factored_values = None;
         self.wall_values.clear();
-        for (side, f) in &self.walls {
-            push_wall_values(&self.mesh, &self.layout, *side, f, &mut self.wall_values);
+        for condition in &self.walls {
+            push_condition_values(&self.mesh, &self.layout, condition, &mut self.wall_values);
         }
         self.reset_constraints();
     }

@@ -1,6 +1,7 @@
 //! Sparsity pattern of the flow matrix, and each particle's reach: the elements coupled to its
 //! rigid-body unknowns, so that the pattern and its symbolic factorization outlive small moves.
 
+use super::cache::dilate;
 use super::dofs::{element_dofs, Layout, MAX_EL_DOFS};
 use crate::fem::sparse::{PatternBuilder, SparseMatrix};
 use crate::mesh::{bounding_box, Mesh, Shape};
@@ -40,47 +41,81 @@ fn rigid_reach(mesh: &Mesh, particles: &[Particle]) -> Vec<Vec<bool>> {
         .collect()
 }
 
-/// [`rigid_reach`] of the particles, or every element for every particle if that does not cover
-/// `cuts` (cuts not of these positions: a caller's choice).
-pub(super) fn reach_for(
-    mesh: &Mesh,
-    particles: &[Particle],
-    cuts: &[ElementCut],
-) -> Vec<Vec<bool>> {
-    let reach = rigid_reach(mesh, particles);
-    if reach_covers(&reach, cuts) {
-        reach
-    } else {
-        vec![vec![true; mesh.n_elements()]; particles.len()]
+/// How far beyond the elements a free surface cuts (cut elements without particle pieces) the
+/// pattern couples the ghost-penalty patches and the matrix is assembled every step, in elements:
+/// the surface can move about this far before the pattern is rebuilt.
+const SURFACE_REACH: usize = 2;
+
+/// Where the flow matrix may change while a pattern lasts: each particle's reach (the elements
+/// coupled to its rigid-body unknowns) and the band around a free surface. Elements outside it
+/// are fluid and assembled from the cached base; the ghost-penalty patches of faces next to it
+/// are in the pattern.
+#[derive(Debug, Clone)]
+pub(super) struct Reach {
+    /// Per particle, the elements coupled to its rigid-body unknowns.
+    pub particles: Vec<Vec<bool>>,
+    /// The elements within [`SURFACE_REACH`] of an element cut by a free surface.
+    pub surface: Vec<bool>,
+}
+
+impl Reach {
+    /// Whether element `e` may be cut while the pattern lasts.
+    pub fn contains(&self, e: usize) -> bool {
+        self.surface[e] || self.particles.iter().any(|r| r[e])
+    }
+
+    /// Whether every cut element lies in the reach of what cuts it.
+    pub fn covers(&self, cuts: &[ElementCut]) -> bool {
+        cuts.iter().enumerate().all(|(e, c)| match c {
+            ElementCut::Cut(c) if c.particles.is_empty() => self.surface[e],
+            ElementCut::Cut(c) => c.particles.iter().all(|pc| self.particles[pc.particle][e]),
+            _ => true,
+        })
+    }
+
+    /// Whether the pattern couples the two elements of the face between `e` and `o` for the
+    /// ghost penalty: faces next to an element in the reach (only those can be cut while the
+    /// pattern lasts). The pattern and the nested-dissection ordering must agree on this.
+    pub fn patched_face(&self, e: usize, o: usize) -> bool {
+        self.contains(e) || self.contains(o)
     }
 }
 
-/// Whether every cut element's particles are coupled to it in the pattern.
-pub(super) fn reach_covers(reach: &[Vec<bool>], cuts: &[ElementCut]) -> bool {
-    cuts.iter().enumerate().all(|(e, c)| match c {
-        ElementCut::Cut(c) => c.particles.iter().all(|pc| reach[pc.particle][e]),
-        _ => true,
-    })
-}
-
-/// Whether the pattern couples the two elements of the face between `e` and `o` for the ghost
-/// penalty: faces next to an element in a particle's reach (only those can be cut while the
-/// pattern lasts). The pattern and the nested-dissection ordering must agree on this.
-pub(super) fn patched_face(reach: &[Vec<bool>], e: usize, o: usize) -> bool {
-    reach.iter().any(|r| r[e] || r[o])
+/// The [`Reach`] of the particles and surface cuts: [`rigid_reach`] of the particles, or every
+/// element for every particle if that does not cover `cuts` (cuts not of these positions: a
+/// caller's choice); the elements `cuts` has cut by a free surface, widened by
+/// [`SURFACE_REACH`].
+pub(super) fn reach_for(mesh: &Mesh, particles: &[Particle], cuts: &[ElementCut]) -> Reach {
+    let surface_cut: Vec<bool> = cuts
+        .iter()
+        .map(|c| matches!(c, ElementCut::Cut(c) if c.particles.is_empty()))
+        .collect();
+    let surface = dilate(&surface_cut, mesh.dims(), mesh.periodic, SURFACE_REACH);
+    let reach = Reach {
+        particles: rigid_reach(mesh, particles),
+        surface,
+    };
+    if reach.covers(cuts) {
+        reach
+    } else {
+        Reach {
+            particles: vec![vec![true; mesh.n_elements()]; particles.len()],
+            ..reach
+        }
+    }
 }
 
 /// The sparsity pattern of the flow matrix: every element (also those inside particles, which
 /// store zeros next to identity rows, so that a particle crossing the mesh does not change the
 /// pattern) and the rigid-body couplings of the elements in each particle's reach.
-pub(super) fn build_pattern(mesh: &Mesh, layout: &Layout, reach: &[Vec<bool>]) -> SparseMatrix {
+pub(super) fn build_pattern(mesh: &Mesh, layout: &Layout, reach: &Reach) -> SparseMatrix {
     let mut pb = PatternBuilder::new(layout.n_dofs());
     let mut dofs = Vec::with_capacity(MAX_EL_DOFS);
     let (mut g_ij, mut u_i) = (Vec::with_capacity(4), Vec::with_capacity(9));
     let mut group = Vec::with_capacity(25);
     for e in 0..mesh.n_elements() {
         element_dofs(mesh, layout, e, &mut dofs);
-        for (i, r) in reach.iter().enumerate() {
+        for (i, r) in reach.particles.iter().enumerate() {
             if r[e] {
                 group.clear();
                 group.extend_from_slice(&dofs[..22]);
@@ -102,7 +137,7 @@ pub(super) fn build_pattern(mesh: &Mesh, layout: &Layout, reach: &[Vec<bool>]) -
             }
         }
     }
-    for face in faces_where(mesh, |e, o| patched_face(reach, e, o)) {
+    for face in faces_where(mesh, |e, o| reach.patched_face(e, o)) {
         group.clear();
         for e in [face.first, face.second] {
             element_dofs(mesh, layout, e, &mut dofs);

@@ -1,7 +1,7 @@
 //! Unit tests of the flow solver: moved particles and moved meshes against solvers built anew.
 
 use super::*;
-use crate::mesh::Axis;
+use crate::mesh::{Axis, Side};
 use crate::solver::cutcells::compute_cuts;
 use crate::solver::rigid::Motion;
 use crate::xfem::CutOptions;

@@ -1,0 +1,265 @@
+//! A free surface y = H(x, t) immersed in the fixed mesh (thesis §6.2–6.3): the height function on
+//! its own line mesh, its level set for XFEM, and the kinematic equation that moves it.
+//!
+//! - [`HeightFunction`]: H on P1 line elements whose nodes are the x-coordinates of the Q2 nodes
+//!   downstream of the die exit (two P1 elements per Q2 element, the thesis' choice, §6.3.4 step
+//!   5), pinned at the die exit, H(0, t) = H0 (Eq. 6.17).
+//! - The kinematic equation ∂H/∂t + u_x ∂H/∂x = u_y (Eq. 6.3) with the velocity of the flow at the
+//!   surface, discretized by SUPG (test functions w + τ u_x w′) and Gear's BDF2 (BDF1 on the
+//!   first step), as Eqs. (6.45)–(6.50): [`HeightFunction::advance`]. The system is tridiagonal.
+//! - [`SurfaceLevelSet`]: ζ = H(x) − y in the extrudate (x > 0), scaled to be 1-Lipschitz as the
+//!   cut quadrature requires, and in the die (x ≤ 0) the level H0 + [`DIE_OFFSET`]·h of a wall
+//!   that lies on a grid line: the elements above it are then cut by slivers below the discard
+//!   ratio (removed) and those below are fluid, so the die wall is a line of mesh nodes where the
+//!   caller imposes no-slip.
+
+use crate::solver::bdf::Bdf2;
+use crate::xfem::LevelSet;
+
+/// Offset of the die region's level above the die wall, relative to the element size: places
+/// the zero level strictly above the wall's grid line, so that no element below it is cut; the
+/// slivers above (area ratio ~1e-9) are below the cut rule's discard ratio (1e-6).
+pub const DIE_OFFSET: f64 = 1e-9;
+
+/// The height of the free surface on its line mesh.
+#[derive(Debug, Clone)]
+pub struct HeightFunction {
+    /// Node coordinates x_0 = 0 (die exit) < x_1 < … (extrudate).
+    x: Vec<f64>,
+    /// Hⁿ at the nodes.
+    h: Vec<f64>,
+    /// Hⁿ⁻¹ (None before the first step).
+    prev: Option<Vec<f64>>,
+    /// Die half-height H0 (the pinned value at x_0).
+    h0: f64,
+}
+
+impl HeightFunction {
+    /// The flat surface H = H0 (the initial condition, Eq. 6.16) on nodes `x` (increasing, x[0] at
+    /// the die exit).
+    ///
+    /// # Panics
+    /// If `x` has fewer than two nodes or is not increasing.
+    pub fn flat(x: Vec<f64>, h0: f64) -> Self {
+        assert!(x.len() >= 2, "a line mesh needs two nodes");
+        assert!(x.windows(2).all(|w| w[1] > w[0]), "nodes must increase");
+        let h = vec![h0; x.len()];
+        Self {
+            x,
+            h,
+            prev: None,
+            h0,
+        }
+    }
+
+    /// Node coordinates.
+    pub fn nodes(&self) -> &[f64] {
+        &self.x
+    }
+
+    /// Hⁿ at the nodes.
+    pub fn heights(&self) -> &[f64] {
+        &self.h
+    }
+
+    /// The die half-height H0.
+    pub fn h0(&self) -> f64 {
+        self.h0
+    }
+
+    /// The largest height (the swell is max H / H0).
+    pub fn max(&self) -> f64 {
+        self.h.iter().copied().fold(f64::NEG_INFINITY, f64::max)
+    }
+
+    /// The predicted surface Ĥⁿ⁺¹ = (1+ω)Hⁿ − ωHⁿ⁻¹ for a step `dt` after `dt_prev` (Eq. 6.52
+    /// with variable steps; Hⁿ on the first step, Eq. 6.54).
+    pub fn predicted(&self, dt: f64, dt_prev: f64) -> HeightFunction {
+        let h = match &self.prev {
+            Some(p) => {
+                let w = Bdf2::with_ratio(dt / dt_prev).ratio;
+                self.h
+                    .iter()
+                    .zip(p)
+                    .map(|(a, b)| (1.0 + w) * a - w * b)
+                    .collect()
+            }
+            None => self.h.clone(),
+        };
+        HeightFunction {
+            x: self.x.clone(),
+            h,
+            prev: None,
+            h0: self.h0,
+        }
+    }
+
+    /// H at `x` (P1 interpolation; H0 upstream of the die exit, the last value beyond the end).
+    pub fn at(&self, x: f64) -> f64 {
+        if x <= self.x[0] {
+            return self.h0;
+        }
+        let i = self.x.partition_point(|&xi| xi <= x);
+        if i >= self.x.len() {
+            return *self.h.last().expect("two nodes");
+        }
+        let (x0, x1) = (self.x[i - 1], self.x[i]);
+        let s = (x - x0) / (x1 - x0);
+        (1.0 - s) * self.h[i - 1] + s * self.h[i]
+    }
+
+    /// The level set of the fluid bounded by this surface (see the module); `h` is the element
+    /// size across the die wall.
+    pub fn level_set(&self, h: f64) -> SurfaceLevelSet<'_> {
+        let slope = self
+            .x
+            .windows(2)
+            .zip(self.h.windows(2))
+            .map(|(x, y)| ((y[1] - y[0]) / (x[1] - x[0])).abs())
+            .fold(0.0, f64::max);
+        SurfaceLevelSet {
+            surface: self,
+            scale: 1.0 / slope.hypot(1.0),
+            die_level: self.h0 + DIE_OFFSET * h,
+        }
+    }
+
+    /// One step of the kinematic equation: Hⁿ⁺¹ from the surface velocity `u[i]` = (u_x, u_y) at
+    /// the nodes (of the flow on the predicted surface), by SUPG and BDF2 with steps `dt` (now)
+    /// and `dt_prev` (the last; variable-step Gear coefficients), BDF1 on the first step. Returns
+    /// max_i |Hⁿ⁺¹ − Hⁿ|.
+    ///
+    /// # Panics
+    /// If `u` does not have one velocity per node.
+    pub fn advance(&mut self, u: &[[f64; 2]], dt: f64, dt_prev: f64) -> f64 {
+        let n = self.x.len();
+        assert_eq!(u.len(), n, "one velocity per surface node");
+        // ∂H/∂t ≈ (c₀ Hⁿ⁺¹ − c₁ Hⁿ + c₂ Hⁿ⁻¹)/dt
+        let bdf = Bdf2::after(dt, self.prev.as_ref().map(|_| dt_prev));
+        let (a0, a1, a2) = (bdf.c0, bdf.c1, bdf.c2);
+        let history: Vec<f64> = (0..n)
+            .map(|i| a1 * self.h[i] - a2 * self.prev.as_ref().map_or(0.0, |p| p[i]))
+            .collect();
+        // tridiagonal system: lower[i] H[i-1] + diag[i] H[i] + upper[i] H[i+1] = rhs[i]
+        let (mut lower, mut diag, mut upper, mut rhs) =
+            (vec![0.0; n], vec![0.0; n], vec![0.0; n], vec![0.0; n]);
+        let g = 1.0 / 3f64.sqrt();
+        for e in 0..n - 1 {
+            let len = self.x[e + 1] - self.x[e];
+            let a_mean = 0.5 * (u[e][0] + u[e + 1][0]);
+            // SUPG parameter of a transient advection (time and advection scales)
+            let tau = ((2.0 / dt).powi(2) + (2.0 * a_mean.abs() / len).powi(2)).powf(-0.5);
+            for s in [0.5 * (1.0 - g), 0.5 * (1.0 + g)] {
+                let w = 0.5 * len;
+                let phi = [1.0 - s, s];
+                let dphi = [-1.0 / len, 1.0 / len];
+                let a = phi[0] * u[e][0] + phi[1] * u[e + 1][0];
+                let f = phi[0] * u[e][1] + phi[1] * u[e + 1][1];
+                let hist = phi[0] * history[e] + phi[1] * history[e + 1];
+                for i in 0..2 {
+                    let test = w * (phi[i] + tau * a * dphi[i]);
+                    let row = e + i;
+                    rhs[row] += test * (f + hist / dt);
+                    for j in 0..2 {
+                        let value = test * (a0 / dt * phi[j] + a * dphi[j]);
+                        match j as isize - i as isize {
+                            0 => diag[row] += value,
+                            1 => upper[row] += value,
+                            _ => lower[row] += value,
+                        }
+                    }
+                }
+            }
+        }
+        // H(x_0) = H0 (Eq. 6.17)
+        (lower[0], diag[0], upper[0], rhs[0]) = (0.0, 1.0, 0.0, self.h0);
+        let next = thomas(&lower, &diag, &upper, &rhs);
+        let change = next
+            .iter()
+            .zip(&self.h)
+            .map(|(a, b)| (a - b).abs())
+            .fold(0.0, f64::max);
+        self.prev = Some(std::mem::replace(&mut self.h, next));
+        change
+    }
+}
+
+/// Solves a tridiagonal system (Thomas algorithm; the SUPG matrix of an advection-dominated
+/// kinematic equation with a positive time term is diagonally dominant enough for it).
+fn thomas(lower: &[f64], diag: &[f64], upper: &[f64], rhs: &[f64]) -> Vec<f64> {
+    let n = diag.len();
+    let (mut c, mut d) = (vec![0.0; n], vec![0.0; n]);
+    c[0] = upper[0] / diag[0];
+    d[0] = rhs[0] / diag[0];
+    for i in 1..n {
+        let m = diag[i] - lower[i] * c[i - 1];
+        c[i] = upper[i] / m;
+        d[i] = (rhs[i] - lower[i] * d[i - 1]) / m;
+    }
+    let mut x = vec![0.0; n];
+    x[n - 1] = d[n - 1];
+    for i in (0..n - 1).rev() {
+        x[i] = d[i] - c[i] * x[i + 1];
+    }
+    x
+}
+
+/// The level set of the fluid under a free surface and a die wall (see the module): positive in
+/// the fluid.
+#[derive(Debug, Clone, Copy)]
+pub struct SurfaceLevelSet<'a> {
+    surface: &'a HeightFunction,
+    /// 1/√(1 + max|H′|²): makes ζ 1-Lipschitz.
+    scale: f64,
+    /// The level of the die region, just above the die wall.
+    die_level: f64,
+}
+
+impl LevelSet for SurfaceLevelSet<'_> {
+    fn value(&self, x: [f64; 2]) -> f64 {
+        let top = if x[0] <= self.surface.x[0] {
+            self.die_level
+        } else {
+            self.surface.at(x[0])
+        };
+        self.scale * (top - x[1])
+    }
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    /// Round-off of the tridiagonal solve on O(1) heights.
+    const TOL: f64 = 1e-12;
+
+    /// A uniform flow u = (U, V) with V = const lifts the surface at slope V/U in steady state:
+    /// H(x) = H0 + (V/U) x, which P1 represents exactly; the transient reaches it.
+    #[test]
+    fn a_uniform_lift_reaches_the_straight_steady_surface() {
+        let x: Vec<f64> = (0..=40).map(|i| 0.05 * i as f64).collect();
+        let mut s = HeightFunction::flat(x.clone(), 1.0);
+        let u = vec![[1.0, 0.1]; x.len()];
+        let mut change = 1.0;
+        for _ in 0..400 {
+            change = s.advance(&u, 0.05, 0.05);
+        }
+        assert!(change < TOL, "steady: {change}");
+        for (xi, h) in x.iter().zip(s.heights()) {
+            assert!((h - (1.0 + 0.1 * xi)).abs() < 1e-9, "H({xi}) = {h}");
+        }
+        assert_eq!(s.heights()[0], 1.0, "pinned at the die exit");
+    }
+
+    /// The level set: the surface's sign, 1-Lipschitz, and the die wall's level just above H0.
+    #[test]
+    fn the_level_set_follows_the_surface_and_the_die() {
+        let mut s = HeightFunction::flat(vec![0.0, 1.0, 2.0], 1.0);
+        s.h = vec![1.0, 1.2, 1.2];
+        let ls = s.level_set(0.1);
+        assert!(ls.value([0.5, 1.05]) > 0.0 && ls.value([0.5, 1.15]) < 0.0);
+        assert!(ls.value([-1.0, 1.0]) > 0.0 && ls.value([-1.0, 1.0 + 1e-6]) < 0.0);
+        assert!((ls.value([1.5, 1.0]) - 0.2 / 0.2f64.hypot(1.0)).abs() < TOL);
+        assert!((s.at(0.5) - 1.1).abs() < TOL && s.at(5.0) == 1.2 && s.at(-1.0) == 1.0);
+    }
+}
