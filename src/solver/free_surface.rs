@@ -35,7 +35,7 @@ pub struct HeightFunction {
 }
 
 impl HeightFunction {
-    /// The flat surface H = H0 (the initial condition, Eq. 6.16) on nodes `x` (increasing, x[0] at
+    /// The flat surface H = H0 (the initial condition, Eq. 6.16) on nodes `x` (increasing, `x[0]` at
     /// the die exit).
     ///
     /// # Panics
