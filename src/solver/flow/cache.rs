@@ -79,6 +79,10 @@ impl Stokes {
             if assembled_each_step(&self.reach, &self.moving, e) {
                 continue;
             }
+            // An element outside the reach is fluid, or lies above a free surface beyond its band
+            // (inside a particle it is always in the particle's reach): then all its nodes touch
+            // removed elements only, their rows and columns are constraints, and the elimination
+            // drops what is added here.
             element_dofs(&self.mesh, &lay, e, &mut dofs);
             let xe = &self.mesh.element_coords[e];
             fluid_element_matrix(xe, &self.rule, &tab, eta, theta, lay.with_g, &mut ke);
