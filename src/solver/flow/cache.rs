@@ -9,6 +9,7 @@ use super::kernels::{fluid_element_matrix, shape_table};
 use super::pattern::Reach;
 use super::Stokes;
 use crate::mesh::bounding_box;
+use crate::solver::rigid::ElementCut;
 
 /// Margin, in elements along each index direction, by which [`Stokes::set_mesh`] widens the
 /// elements whose coordinates changed when it adds them to the moving-element mask (elements
@@ -76,13 +77,13 @@ impl Stokes {
         let mut scratch = vec![0.0; lay.n_dofs()];
         self.matrix.zero();
         for e in 0..self.mesh.n_elements() {
-            if assembled_each_step(&self.reach, &self.moving, e) {
+            // removed elements outside the reach lie beyond a free surface's band or above a die
+            // wall (inside a particle an element is always in the particle's reach)
+            if assembled_each_step(&self.reach, &self.moving, e)
+                || matches!(self.cuts[e], ElementCut::Inside)
+            {
                 continue;
             }
-            // An element outside the reach is fluid, or lies above a free surface beyond its band
-            // (inside a particle it is always in the particle's reach): then all its nodes touch
-            // removed elements only, their rows and columns are constraints, and the elimination
-            // drops what is added here.
             element_dofs(&self.mesh, &lay, e, &mut dofs);
             let xe = &self.mesh.element_coords[e];
             fluid_element_matrix(xe, &self.rule, &tab, eta, theta, lay.with_g, &mut ke);
