@@ -4,18 +4,16 @@
 //! failed on main before the fixes. Fake runners, tiny sweeps: seconds in all.
 
 mod common;
-use common::Scratch;
+use common::{query, Scratch};
 use std::path::{Path, PathBuf};
 use std::process::ExitCode;
 use std::sync::atomic::{AtomicUsize, Ordering};
 use std::sync::Arc;
 use std::time::Duration;
 
-use xpflow::cli::sweep_cmds::{
-    run_query_to, run_status_to, run_sweep_with, QueryArgs, QueryWhat, StatusArgs, SweepArgs,
-};
+use xpflow::cli::sweep_cmds::{run_status_to, run_sweep_with, QueryWhat, StatusArgs, SweepArgs};
 use xpflow::observe::OutcomeKind;
-use xpflow::store::{Format, Store};
+use xpflow::store::Store;
 use xpflow::sweep::{FakeBehaviour, FakeRunner};
 
 fn scratch(name: &str) -> Scratch {
@@ -56,21 +54,6 @@ fn args(file: &Path, db: &Path) -> SweepArgs {
 
 fn timeout_runner() -> FakeRunner {
     FakeRunner::new(|_| FakeBehaviour::Produce(OutcomeKind::Timeout))
-}
-
-fn query(what: QueryWhat, db: &Path) -> (ExitCode, String) {
-    let a = QueryArgs {
-        what,
-        db: db.into(),
-        sweep: None,
-        filters: vec![],
-        case: None,
-        by: "r0".into(),
-        format: Format::Csv,
-    };
-    let mut out = Vec::new();
-    let code = run_query_to(&a, &mut out).unwrap();
-    (code, String::from_utf8(out).unwrap())
 }
 
 fn status(db: &Path) -> ExitCode {

@@ -388,20 +388,7 @@ fn export_ships_the_finished_cases_thinned() {
         "the fake trajectories are longer than 5"
     );
     // outcomes, statuses and tables as in the source
-    let table = |p: &Path| {
-        let a = QueryArgs {
-            what: QueryWhat::Cases,
-            db: p.to_path_buf(),
-            sweep: None,
-            filters: vec![],
-            case: None,
-            by: "r0".into(),
-            format: Format::Csv,
-        };
-        let mut out = Vec::new();
-        run_query_to(&a, &mut out).unwrap();
-        String::from_utf8(out).unwrap()
-    };
+    let table = |p: &Path| common::query(QueryWhat::Cases, p).1;
     assert_eq!(table(&db), table(&thin));
     assert!(table(&thin).contains("failed"));
     // whole trajectories without --thin; the source untouched

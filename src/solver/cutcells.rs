@@ -20,8 +20,8 @@ use crate::solver::rigid::{
     BoundaryPoint, CutQuadrature as CutData, ElementCut, Particle, ParticleCut,
 };
 use crate::xfem::{
-    CellLocation, Circle, CircleUnion, CutOptions, CutQuadrature, InterfaceOptions, InterfacePoint,
-    InterfaceQuadrature, LevelSet, Q2Element, RefMap, XfemError,
+    CellLocation, Circle, CircleUnion, CutCell, CutOptions, CutQuadrature, InterfaceOptions,
+    InterfacePoint, InterfaceQuadrature, LevelSet, Q2Element, RefMap, XfemError,
 };
 
 /// How the particles enter the discretization (`numerics.method`): the thesis' XFEM and the
@@ -148,15 +148,8 @@ fn xfem_cuts(mesh: &Mesh, ls: &CircleUnion, opts: CutOptions) -> Result<Vec<Elem
             CellLocation::Cut(cell) => {
                 pts.clear();
                 iq.points_into(&map, ls, &mut pts)?;
-                let vol = cell
-                    .rule
-                    .points
-                    .iter()
-                    .copied()
-                    .zip(cell.rule.weights.iter().copied())
-                    .collect();
                 ElementCut::Cut(CutData {
-                    vol,
+                    vol: fluid_rule(&cell),
                     whole: false,
                     particles: group_by_image(&pts),
                 })
@@ -186,19 +179,23 @@ pub fn surface_cuts<L: LevelSet + ?Sized>(
                 CellLocation::Fluid => ElementCut::Fluid,
                 CellLocation::Particle => ElementCut::Inside,
                 CellLocation::Cut(cell) => ElementCut::Cut(CutData {
-                    vol: cell
-                        .rule
-                        .points
-                        .iter()
-                        .copied()
-                        .zip(cell.rule.weights.iter().copied())
-                        .collect(),
+                    vol: fluid_rule(&cell),
                     whole: false,
                     particles: Vec::new(),
                 }),
             }
         })
         .collect())
+}
+
+/// The fluid-part quadrature of a cut element as (reference point, weight) pairs.
+fn fluid_rule(cell: &CutCell) -> Vec<([f64; 2], f64)> {
+    cell.rule
+        .points
+        .iter()
+        .copied()
+        .zip(cell.rule.weights.iter().copied())
+        .collect()
 }
 
 /// Groups boundary points by particle and periodic image (centre = x − arm).

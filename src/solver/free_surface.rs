@@ -77,12 +77,8 @@ impl HeightFunction {
     pub fn predicted(&self, dt: f64, dt_prev: f64) -> HeightFunction {
         let h = match &self.prev {
             Some(p) => {
-                let w = Bdf2::with_ratio(dt / dt_prev).ratio;
-                self.h
-                    .iter()
-                    .zip(p)
-                    .map(|(a, b)| (1.0 + w) * a - w * b)
-                    .collect()
+                let (wn, wp) = Bdf2::after(dt, Some(dt_prev)).extrapolation();
+                self.h.iter().zip(p).map(|(a, b)| wn * a + wp * b).collect()
             }
             None => self.h.clone(),
         };

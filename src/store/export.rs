@@ -159,11 +159,8 @@ fn write_copy(
     let mut dest = Store::open_journal(tmp, "DELETE")?;
     let derr = dest.sql_err();
     let list = |ids: &BTreeSet<i64>| ids.iter().map(i64::to_string).collect::<Vec<_>>().join(",");
-    let sweep_list = sweeps
-        .iter()
-        .map(i64::to_string)
-        .collect::<Vec<_>>()
-        .join(",");
+    let chosen: BTreeSet<i64> = sweeps.iter().copied().collect();
+    let sweep_list = list(&chosen);
     let linked: BTreeSet<i64> = ids(
         src,
         &format!("SELECT DISTINCT case_id FROM sweep_cases WHERE sweep_id IN ({sweep_list})"),
@@ -186,7 +183,7 @@ fn write_copy(
     )
     .map_err(&serr)?;
     // the sweeps that registered a case first, or whose run ran it, are referenced by its row
-    let mut sweep_ids: BTreeSet<i64> = sweeps.iter().copied().collect();
+    let mut sweep_ids = chosen.clone();
     for sql in [
         format!("SELECT DISTINCT sweep_id FROM cases WHERE id IN ({case_list})"),
         format!(

@@ -104,21 +104,11 @@ pub fn newtonian_swell(h: f64, dt: f64, t_max: f64) -> Result<SwellRun, SwellErr
     let start = std::time::Instant::now();
     let nx = ((DIE_LENGTH + EXTRUDATE_LENGTH) / h).round() as usize;
     let ny = (MESH_HEIGHT / h).round() as usize;
-    let mesh = Mesh::rectangle(
-        Axis::uniform(-DIE_LENGTH, EXTRUDATE_LENGTH, nx),
-        Axis::uniform(0.0, MESH_HEIGHT, ny),
-        false,
-    );
+    let ax = Axis::uniform(-DIE_LENGTH, EXTRUDATE_LENGTH, nx);
     // the surface's nodes: the Q2 node columns from the die exit on (two P1 per Q2 element)
-    let mut xs: Vec<f64> = mesh
-        .nodes
-        .iter()
-        .map(|n| n[0])
-        .filter(|&x| x >= -1e-12)
-        .collect();
-    xs.sort_by(f64::total_cmp);
-    xs.dedup_by(|a, b| (*a - *b).abs() < 1e-12);
-    xs[0] = 0.0;
+    let exit = (2.0 * DIE_LENGTH / h).round() as usize;
+    let xs: Vec<f64> = (exit..=2 * nx).map(|i| ax.q2_coord(i)).collect();
+    let mesh = Mesh::rectangle(ax, Axis::uniform(0.0, MESH_HEIGHT, ny), false);
     let mut surface = HeightFunction::flat(xs, H0);
     let on = move |a: f64, b: f64| (a - b).abs() < 1e-9 * h;
     // one flow solver for the whole run: a new surface gives new cuts; the pattern and its

@@ -90,3 +90,23 @@ pub fn resumed_difference(resumed: &[[f64; 4]], reference: &[[f64; 4]]) -> f64 {
         })
         .fold(0.0, f64::max)
 }
+
+/// `xpflow query WHAT --db DB --format csv` over every sweep: its exit code and output.
+#[allow(dead_code)] // not every test binary queries
+pub fn query(
+    what: xpflow::cli::sweep_cmds::QueryWhat,
+    db: &Path,
+) -> (std::process::ExitCode, String) {
+    let a = xpflow::cli::sweep_cmds::QueryArgs {
+        what,
+        db: db.into(),
+        sweep: None,
+        filters: vec![],
+        case: None,
+        by: "r0".into(),
+        format: xpflow::store::Format::Csv,
+    };
+    let mut out = Vec::new();
+    let code = xpflow::cli::sweep_cmds::run_query_to(&a, &mut out).unwrap();
+    (code, String::from_utf8(out).unwrap())
+}
