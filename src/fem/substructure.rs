@@ -204,8 +204,8 @@ impl Substructured {
         let mut src = self.m_src.iter();
         for j in 0..self.m_dofs.len() {
             let (rows, range) = self.m.column(j);
-            // the Γ × Γ block is S, the last ng rows of a Γ column: written once
-            let dense = if j >= ni { ng } else { 0 };
+            // the Γ × Γ block is S's lower triangle, the last rows of a Γ column: written once
+            let dense = if j >= ni { ng - (j - ni) } else { 0 };
             let sparse_len = rows.len() - dense;
             let vals = &mut self.m.values[range];
             for v in &mut vals[..sparse_len] {
@@ -215,11 +215,12 @@ impl Substructured {
             }
             if first && dense > 0 {
                 vals[sparse_len..].copy_from_slice(
-                    self.schur
+                    &self
+                        .schur
                         .col(j - ni)
                         .try_as_col_major()
                         .expect("contiguous")
-                        .as_slice(),
+                        .as_slice()[j - ni..],
                 );
             }
         }
@@ -319,8 +320,10 @@ fn gemv(y: ColMut<'_, f64>, s: &Mat<f64>, x: ColRef<'_, f64>) {
 }
 
 /// The submatrix of `a` on `dofs` (new index → dof) as a pattern, and for each of its entries
-/// the position of the value in `a`. With `dense_from = Some(k)`, the block of the indices
-/// `k..` is stored dense and its entries have no source (they come last in each of its columns).
+/// the position of the value in `a`. With `dense_from = Some(k)`, the lower triangle of the
+/// block of the indices `k..` is stored dense and its entries have no source (they come last in
+/// each of its columns; the block's upper triangle is left out: the factorization reads the lower
+/// triangle only).
 fn submatrix(
     a: &SparseMatrix,
     dofs: &[usize],
@@ -350,7 +353,8 @@ fn submatrix(
             src.push(p);
         }
         if j >= dense {
-            row_idx.extend(dense..m);
+            // the lower triangle (the factorization reads no other)
+            row_idx.extend(j..m);
         }
         col_ptr.push(row_idx.len());
     }
