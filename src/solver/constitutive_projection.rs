@@ -116,6 +116,11 @@ pub struct Q1Projection {
     factored: bool,
     rhs: Vec<Vec<f64>>,
     rule: Vec<([f64; 2], f64)>,
+    /// Q1 shape values at the points of `rule`.
+    rule_psi: Vec<[f64; 4]>,
+    /// Per element, weight × det J at the points of `rule` (for the mesh geometry in use; empty
+    /// until the first projection and after [`geometry_changed`](Self::geometry_changed)).
+    rule_wdet: Vec<[f64; FULL_POINTS]>,
     cuts: Vec<ElementCut>,
     ghost: Vec<GhostFace>,
 }
@@ -124,6 +129,9 @@ pub struct Q1Projection {
 /// entries (see [`crate::solver::ghost`]). Keeps the values at vertices with a sliver of fluid a
 /// smooth extension, which the temporary ALE map then interpolates at other points.
 pub const PROJECTION_GHOST_PENALTY: f64 = 1e-4;
+
+/// Points of the rule on an uncut element (3×3 Gauss).
+const FULL_POINTS: usize = 9;
 
 impl std::fmt::Debug for Q1Projection {
     fn fmt(&self, f: &mut std::fmt::Formatter<'_>) -> std::fmt::Result {
@@ -140,6 +148,7 @@ impl Q1Projection {
     pub fn new(mesh: &Mesh) -> Self {
         let nv = mesh.n_vertices();
         let rule = gauss_quad(3);
+        assert_eq!(rule.points.len(), FULL_POINTS, "3x3 Gauss");
         Self {
             n_vertices: nv,
             matrix: q1_pattern(nv, &mesh.element_vertices),
@@ -147,6 +156,8 @@ impl Q1Projection {
             solver: None,
             factored: false,
             rhs: Vec::new(),
+            rule_psi: rule.points.iter().map(|&xi| q1(xi).0).collect(),
+            rule_wdet: Vec::new(),
             rule: rule.points.into_iter().zip(rule.weights).collect(),
             cuts: vec![ElementCut::Fluid; mesh.n_elements()],
             ghost: Vec::new(),
@@ -174,6 +185,7 @@ impl Q1Projection {
     /// Marks the geometry as changed (moved mesh nodes): refactor on the next projection.
     pub fn geometry_changed(&mut self) {
         self.factored = false;
+        self.rule_wdet.clear();
     }
 
     /// The element classification in use.
@@ -181,23 +193,48 @@ impl Q1Projection {
         &self.cuts
     }
 
+    /// Weight × det J of the uncut elements' rule, once per geometry.
+    fn tabulate(&mut self, mesh: &Mesh) {
+        if self.rule_wdet.len() == mesh.n_elements() {
+            return;
+        }
+        self.rule_wdet = mesh
+            .element_coords
+            .iter()
+            .map(|xe| {
+                let mut wdet = [0.0; FULL_POINTS];
+                for (wd, &(xi, w)) in wdet.iter_mut().zip(&self.rule) {
+                    *wd = w * q2_map(xe, xi).2;
+                }
+                wdet
+            })
+            .collect();
+    }
+
     fn refresh(&mut self, mesh: &Mesh) -> Result<(), ConstitutiveError> {
+        self.tabulate(mesh);
         self.matrix.zero();
         let mut scratch = vec![0.0; self.n_vertices];
         let mut kflat = [0.0; 16];
         for e in 0..mesh.n_elements() {
-            let pts: &[([f64; 2], f64)] = match &self.cuts[e] {
-                ElementCut::Inside => continue,
-                ElementCut::Fluid => &self.rule,
-                ElementCut::Cut(c) => &c.vol,
-            };
             kflat.fill(0.0);
-            for &(xi, w) in pts {
-                let wq = w * q2_map(&mesh.element_coords[e], xi).2;
-                let psi = q1(xi).0;
+            let mut add = |wq: f64, psi: &[f64; 4]| {
                 for a in 0..4 {
                     for b in 0..4 {
                         kflat[4 * a + b] += wq * psi[a] * psi[b];
+                    }
+                }
+            };
+            match &self.cuts[e] {
+                ElementCut::Inside => continue,
+                ElementCut::Fluid => {
+                    for (wq, psi) in self.rule_wdet[e].iter().zip(&self.rule_psi) {
+                        add(*wq, psi);
+                    }
+                }
+                ElementCut::Cut(c) => {
+                    for &(xi, w) in &c.vol {
+                        add(w * q2_map(&mesh.element_coords[e], xi).2, &q1(xi).0);
                     }
                 }
             }
@@ -260,21 +297,30 @@ impl Q1Projection {
         self.rhs.resize_with(N, || vec![0.0; self.n_vertices]);
         self.rhs.iter_mut().for_each(|r| r.fill(0.0));
         for e in 0..mesh.n_elements() {
-            let pts: &[([f64; 2], f64)] = match &self.cuts[e] {
-                ElementCut::Inside => continue,
-                ElementCut::Fluid => &self.rule,
-                ElementCut::Cut(c) => &c.vol,
-            };
             let verts = &mesh.element_vertices[e];
-            for &(xi, w) in pts {
-                let wq = w * q2_map(&mesh.element_coords[e], xi).2;
-                let psi = q1(xi).0;
-                let val = f(e, xi);
+            let (rhs, fixed) = (&mut self.rhs, &self.fixed);
+            let mut add = |wq: f64, psi: &[f64; 4], val: [f64; N]| {
                 for a in 0..4 {
-                    if self.fixed[verts[a]].is_none() {
+                    if fixed[verts[a]].is_none() {
                         for c in 0..N {
-                            self.rhs[c][verts[a]] += wq * psi[a] * val[c];
+                            rhs[c][verts[a]] += wq * psi[a] * val[c];
                         }
+                    }
+                }
+            };
+            match &self.cuts[e] {
+                ElementCut::Inside => continue,
+                ElementCut::Fluid => {
+                    for ((wq, psi), &(xi, _)) in
+                        self.rule_wdet[e].iter().zip(&self.rule_psi).zip(&self.rule)
+                    {
+                        add(*wq, psi, f(e, xi));
+                    }
+                }
+                ElementCut::Cut(c) => {
+                    for &(xi, w) in &c.vol {
+                        let wq = w * q2_map(&mesh.element_coords[e], xi).2;
+                        add(wq, &q1(xi).0, f(e, xi));
                     }
                 }
             }
