@@ -30,6 +30,7 @@ impl TemporaryAle {
             // a mesh with moved columns or rows: same pattern, new element matrices
             self.element_k = laplace_elements(mesh);
             self.k_axes = (mesh.ax.clone(), mesh.ay.clone());
+            self.factored_mask.clear();
         }
         // rigid patches: the nearest particle claims a vertex; walls win
         let mut claim: Vec<Option<(f64, [f64; 2])>> = vec![None; nv];
@@ -58,33 +59,49 @@ impl TemporaryAle {
                 }
             })
             .collect();
-        let fx: Vec<Option<f64>> = fixed.iter().map(|f| f.map(|d| d[0])).collect();
-        self.matrix.zero();
+        // the matrix depends on which vertices are fixed only, not on their values: it is
+        // assembled and factored again only when a rigid patch gains or loses a vertex
+        let mask: Vec<bool> = fixed.iter().map(Option::is_some).collect();
+        let refactor = self.solver.is_none() || self.factored_mask != mask;
         let mut rhs = [vec![0.0; nv], vec![0.0; nv]];
-        let zero = [0.0; 4];
         for (verts, k) in mesh.element_vertices.iter().zip(&self.element_k) {
-            self.matrix.scatter(verts, k, &zero, &mut rhs[0], &fx);
-            // the same symmetric elimination for the y component
+            // the symmetric elimination of the fixed values
             for (b, &j) in verts.iter().enumerate() {
                 let Some(g) = fixed[j] else { continue };
                 for (a, &i) in verts.iter().enumerate() {
                     if fixed[i].is_none() {
+                        rhs[0][i] -= k[4 * a + b] * g[0];
                         rhs[1][i] -= k[4 * a + b] * g[1];
                     }
                 }
             }
         }
-        self.matrix.apply_constraints(&mut rhs[0], &fx);
         for (v, f) in fixed.iter().enumerate() {
             if let Some(g) = f {
+                rhs[0][v] = g[0];
                 rhs[1][v] = g[1];
             }
         }
-        if self.solver.is_none() {
-            self.solver = Some(DirectSolver::analyze(&self.matrix, SolverKind::Lblt)?);
+        if refactor {
+            let fx: Vec<Option<f64>> = mask.iter().map(|&m| m.then_some(0.0)).collect();
+            let mut scratch = vec![0.0; nv];
+            self.matrix.zero();
+            let zero = [0.0; 4];
+            for (verts, k) in mesh.element_vertices.iter().zip(&self.element_k) {
+                self.matrix.scatter(verts, k, &zero, &mut scratch, &fx);
+            }
+            self.matrix.apply_constraints(&mut scratch, &fx);
+            if self.solver.is_none() {
+                self.solver = Some(DirectSolver::analyze(&self.matrix, SolverKind::Lblt)?);
+            }
+            self.factored_mask = Vec::new();
+            self.solver
+                .as_mut()
+                .expect("analysed above")
+                .factor(&self.matrix)?;
+            self.factored_mask = mask;
         }
-        let solver = self.solver.as_mut().expect("analysed above");
-        solver.factor(&self.matrix)?;
+        let solver = self.solver.as_mut().expect("factored above");
         let mut d = vec![[0.0; 2]; nv];
         let mut sol = vec![0.0; nv];
         for (c, r) in rhs.iter().enumerate() {

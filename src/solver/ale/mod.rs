@@ -105,6 +105,8 @@ pub struct TemporaryAle {
     k_axes: (Axis, Axis),
     matrix: SparseMatrix,
     solver: Option<DirectSolver>,
+    /// The fixed vertices (walls and rigid patches) `solver` was factored for (empty: none).
+    factored_mask: Vec<bool>,
     /// Vertices on walls (d = 0).
     wall: Vec<bool>,
     /// d_m^n of the previous step.
@@ -145,6 +147,7 @@ impl TemporaryAle {
             k_axes: (mesh.ax.clone(), mesh.ay.clone()),
             matrix: q1_pattern(mesh.n_vertices(), &mesh.element_vertices),
             solver: None,
+            factored_mask: Vec::new(),
             wall,
             previous: None,
             previous_axes: None,
