@@ -114,17 +114,7 @@ impl Substructured {
     /// field and Γ, eliminated in the order of `order`, a fill-reducing order of all dofs, with
     /// Γ last) and condenses it onto Γ, and analyses M. The band must not be empty.
     pub fn new(a: &SparseMatrix, band: &[bool], order: &[usize]) -> Result<Self, SolveError> {
-        let n = a.n();
-        assert_eq!(band.len(), n, "one band flag per dof");
-        // Γ: band dofs coupled to a far dof
-        let mut gamma = vec![false; n];
-        for j in (0..n).filter(|&j| !band[j]) {
-            for &i in a.column(j).0 {
-                if band[i] {
-                    gamma[i] = true;
-                }
-            }
-        }
+        let gamma = Self::interface(a, band);
         // numberings in the elimination order: K = F then Γ, M = I then Γ
         let far: Vec<usize> = order.iter().copied().filter(|&d| !band[d]).collect();
         let iface: Vec<usize> = order.iter().copied().filter(|&d| gamma[d]).collect();
@@ -173,6 +163,24 @@ impl Substructured {
             m_factored: false,
             last_polish: 0,
         })
+    }
+
+    /// Γ, the dofs of the band (`band[d]`) coupled to a dof outside it, by dof.
+    ///
+    /// # Panics
+    /// If `band` does not have one flag per dof of `a`.
+    pub fn interface(a: &SparseMatrix, band: &[bool]) -> Vec<bool> {
+        let n = a.n();
+        assert_eq!(band.len(), n, "one band flag per dof");
+        let mut gamma = vec![false; n];
+        for j in (0..n).filter(|&j| !band[j]) {
+            for &i in a.column(j).0 {
+                if band[i] {
+                    gamma[i] = true;
+                }
+            }
+        }
+        gamma
     }
 
     /// Sizes of the split.

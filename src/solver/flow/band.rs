@@ -25,6 +25,14 @@ const BAND_MARGIN: usize = 2;
 /// a larger band falls back to [`FlowFactorization::Whole`].
 pub const BAND_FRACTION_LIMIT: f64 = 0.5;
 
+/// Largest interface |Γ| for which the band pays, in units of √(number of dofs). M's dense Γ
+/// block costs ∝ |Γ|³ per step, the whole matrix's factorization (nested dissection, 2D)
+/// ∝ n^1.5, so they meet at |Γ| ∝ √n. Measured on 200×50 (`xpflow bench moving --particles
+/// 3,5,8 --factorization both`, n = 91 000, √n = 302): |Γ| = 1140 (three particles) step 1.4×
+/// faster than the whole matrix, 1900 (five) 1.09×, 2856 (eight) 0.78× — the break-even near
+/// |Γ| ≈ 2000 = 6.6 √n. At 440×110 three particles have |Γ| = 1920 = 2.9 √n (1.75× faster).
+pub const INTERFACE_LIMIT: f64 = 6.5;
+
 /// Seconds of one factor-and-solve, by phase.
 pub(super) struct SolveTimes {
     /// New placement: split, far-field factorization and condensation, band analysis.
@@ -38,7 +46,8 @@ pub(super) struct SolveTimes {
 impl Stokes {
     /// Factors (when the values changed) and solves the assembled system with the band solver;
     /// `None` when there is no band to speak of (no particles, nothing moves, or the band holds
-    /// more than [`BAND_FRACTION_LIMIT`] of the elements) or the band solver failed (counted in
+    /// more than [`BAND_FRACTION_LIMIT`] of the elements), when its interface is too large to pay
+    /// ([`INTERFACE_LIMIT`], counted in `band_declines`) or the band solver failed (counted in
     /// `band_fallbacks`): the caller factors the whole matrix.
     pub(super) fn solve_by_band(&mut self) -> Result<Option<(f64, SolveTimes)>, SolveError> {
         debug_assert_eq!(self.params.factorization, FlowFactorization::Band);
@@ -49,9 +58,22 @@ impl Stokes {
             .is_none_or(|s| !s.fits(&self.matrix))
         {
             self.band_solver = None;
+            let placement = (self.pattern_rebuilds, self.base_rebuilds);
+            if self.band_declined == Some(placement) {
+                return Ok(None);
+            }
             let Some(band) = self.band_dofs() else {
                 return Ok(None);
             };
+            let interface = Substructured::interface(&self.matrix, &band);
+            let n_gamma = interface.iter().filter(|&&g| g).count();
+            if n_gamma as f64 > INTERFACE_LIMIT * (self.matrix.n() as f64).sqrt() {
+                // the dense Γ block would cost more than the whole matrix: the whole matrix
+                // then, until the band is placed anew
+                self.band_declined = Some(placement);
+                self.band_declines += 1;
+                return Ok(None);
+            }
             // the whole matrix's factorization is stale once the band solver takes over
             self.factored_values = None;
             let placed = self

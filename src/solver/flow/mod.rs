@@ -171,6 +171,11 @@ pub struct Stokes {
     /// Solves of [`FlowFactorization::Band`] that fell back to the whole matrix because the
     /// band solver failed (its placement or a factorization); 0 in every run measured.
     pub band_fallbacks: usize,
+    /// Placements of the band declined because its interface was too large
+    /// ([`band::INTERFACE_LIMIT`]): the whole matrix was factored instead.
+    pub band_declines: usize,
+    /// The placement (pattern and base rebuild counts) whose band was declined.
+    band_declined: Option<(usize, usize)>,
     /// Invalidations of the cached fluid base matrix by [`set_mesh`](Self::set_mesh) (an element
     /// outside the moving-element mask moved); the base is rebuilt at the next solve.
     pub base_rebuilds: usize,
@@ -249,6 +254,8 @@ impl Stokes {
             placements: 0,
             band_solver: None,
             band_fallbacks: 0,
+            band_declines: 0,
+            band_declined: None,
             base_rebuilds: 0,
             rule: gauss_quad(3),
             particles,

@@ -296,3 +296,56 @@ fn the_band_solver_solves_as_the_whole_factorization() {
     assert_eq!(whole.placements, 0);
     assert_eq!(band.refactorizations, whole.refactorizations);
 }
+
+/// Six particles of radius 0.1 along the channel at x = −1.75, −1.15, …, 1.25, moved by `dx`.
+fn row_of_particles(mesh: &Mesh, dx: f64) -> (Vec<Particle>, Vec<ElementCut>) {
+    let p: Vec<Particle> = (0..6)
+        .map(|i| Particle {
+            center: [-1.75 + 0.6 * i as f64 + dx, 0.03 * (i % 2) as f64],
+            radius: 0.1,
+            motion: Motion::Free,
+        })
+        .collect();
+    let cuts = compute_cuts(mesh, &p, Some(period(mesh)), CutOptions::default()).unwrap();
+    (p, cuts)
+}
+
+#[test]
+fn a_band_whose_interface_is_too_large_gives_way_to_the_whole_matrix() {
+    // 96×24, n ≈ 21 200 dofs: the limit is 6.5 √n ≈ 950 interface dofs; one particle's band
+    // boundary has 280, six have 1590
+    let mesh = Mesh::rectangle(
+        Axis::uniform(-2.0, 2.0, 96),
+        Axis::uniform(-0.5, 0.5, 24),
+        true,
+    );
+    let setup = |factorization| {
+        let (p, cuts) = row_of_particles(&mesh, 0.0);
+        let mut params = StokesParams::new(1.0, 0.0, SolverKind::Lblt);
+        params.factorization = factorization;
+        let mut st = Stokes::with_particles(mesh.clone(), params, p, cuts);
+        st.set_velocity(Side::Bottom, |_| [-0.5, 0.0]);
+        st.set_velocity(Side::Top, |_| [0.5, 0.0]);
+        st.pin_pressure();
+        st
+    };
+    let (mut band, mut whole) = (
+        setup(FlowFactorization::Band),
+        setup(FlowFactorization::Whole),
+    );
+    // a move within the reach keeps the pattern: the decision is not made again
+    for dx in [0.0, 0.005] {
+        for st in [&mut band, &mut whole] {
+            let (p, cuts) = row_of_particles(&mesh, dx);
+            st.set_particles(p, cuts);
+        }
+        let d = rel_diff(&solve_at(&mut band), &solve_at(&mut whole));
+        assert!(d <= BAND_VS_WHOLE_TOL, "dx = {dx}: {d:.2e}");
+    }
+    assert_eq!((band.placements, band.band_declines), (0, 1));
+    assert_eq!(band.pattern_rebuilds, 0);
+    // one particle's band is placed as before
+    let mut one = fresh_small(&mesh, [0.013, 0.051], FlowFactorization::Band);
+    solve_at(&mut one);
+    assert_eq!((one.placements, one.band_declines), (1, 0));
+}
