@@ -9,4 +9,4 @@ pub mod structured;
 
 pub use axis::Axis;
 pub use follow::{follow_axis, Follow, FollowError, FollowingMesh};
-pub use structured::{bounding_box, Mesh, Shape, Side};
+pub use structured::{bounding_box, dilate, Mesh, Shape, Side};

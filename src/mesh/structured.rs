@@ -378,6 +378,40 @@ pub(crate) fn invert_q2_map(xe: &[[f64; 2]; 9], x: [f64; 2], guess: [f64; 2]) ->
     newton_inverse(residual, guess, &NEWTON).unwrap_or_else(|failure| failure.xi())
 }
 
+/// The elements of `marked` (numbered `ey·nx + ex`, `dims` = (nx, ny)) widened by `margin`
+/// elements along each index direction (a box), wrapping around a periodic first direction.
+pub fn dilate(
+    marked: &[bool],
+    (nx, ny): (usize, usize),
+    periodic: bool,
+    margin: usize,
+) -> Vec<bool> {
+    let m = margin as isize;
+    let mut wide = vec![false; nx * ny];
+    for e in (0..nx * ny).filter(|&e| marked[e]) {
+        let (ex, ey) = ((e % nx) as isize, e / nx);
+        for d in -m..=m {
+            let x = ex + d;
+            let x = if periodic {
+                x.rem_euclid(nx as isize)
+            } else if (0..nx as isize).contains(&x) {
+                x
+            } else {
+                continue;
+            };
+            wide[ey * nx + x as usize] = true;
+        }
+    }
+    let mut out = vec![false; nx * ny];
+    for e in (0..nx * ny).filter(|&e| wide[e]) {
+        let (ex, ey) = (e % nx, (e / nx) as isize);
+        for y in (ey - m).max(0)..=(ey + m).min(ny as isize - 1) {
+            out[y as usize * nx + ex] = true;
+        }
+    }
+    out
+}
+
 #[cfg(test)]
 mod tests {
     use super::*;

@@ -38,7 +38,7 @@ use crate::fem::sparse::{q1_pattern, SparseMatrix};
 use crate::mesh::Mesh;
 use crate::rheology::{log_conformation_rhs, Giesekus, Sym2, VelocityGradient};
 use crate::solver::ghost::{
-    face_vertices, ghost_face_matrix, ghost_faces, pattern_with_faces, GhostFace,
+    face_vertices, ghost_face_matrix, ghost_faces, pattern_with_faces, FacePattern, GhostFace,
 };
 pub use crate::solver::log_conformation_history::LogConformationHistory;
 use crate::solver::rigid::ElementCut;
@@ -188,6 +188,8 @@ pub struct LogConformationTransport {
     cuts: Vec<ElementCut>,
     /// Faces with a ghost penalty (interior faces of cut elements).
     ghost: Vec<GhostFace>,
+    /// The faces the pattern of `matrix` holds.
+    face_pattern: FacePattern,
     /// Ghost-penalty factor (default [`GHOST_PENALTY`]; 0 switches it off).
     pub ghost_penalty: f64,
     /// Characteristic velocity of the SUPG parameter (default: Case 1, the thesis' choice).
@@ -221,6 +223,7 @@ impl LogConformationTransport {
             rule: rule.points.into_iter().zip(rule.weights).collect(),
             cuts: vec![ElementCut::Fluid; mesh.n_elements()],
             ghost: Vec::new(),
+            face_pattern: FacePattern::default(),
             ghost_penalty: GHOST_PENALTY,
             supg: SupgVelocity::Local,
             timings: TransportTimings::default(),
@@ -236,12 +239,15 @@ impl LogConformationTransport {
         assert_eq!(cuts.len(), self.n_elements, "one ElementCut per element");
         self.fixed = inactive_vertices(mesh, &cuts);
         let ghost = ghost_faces(mesh, &cuts);
-        if ghost != self.ghost {
-            // the faces couple vertices of neighbouring elements: a new pattern
-            self.matrix = pattern_with_faces(mesh, &ghost);
+        if !self.face_pattern.holds(&ghost) {
+            // the faces couple vertices of neighbouring elements: a new pattern, holding the
+            // faces around these for the steps to come
+            let (pattern, faces) = FacePattern::around(mesh, &ghost);
+            self.matrix = pattern_with_faces(mesh, &faces);
             self.solver = None;
-            self.ghost = ghost;
+            self.face_pattern = pattern;
         }
+        self.ghost = ghost;
         self.cuts = cuts;
     }
 

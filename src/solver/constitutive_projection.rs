@@ -16,7 +16,7 @@ use crate::mesh::Mesh;
 use crate::rheology::{Sym2, VelocityGradient};
 use crate::solver::constitutive::{inactive_vertices, ConstitutiveError};
 use crate::solver::ghost::{
-    face_vertices, ghost_face_matrix, ghost_faces, pattern_with_faces, GhostFace,
+    face_vertices, ghost_face_matrix, ghost_faces, pattern_with_faces, FacePattern, GhostFace,
 };
 use crate::solver::rigid::ElementCut;
 
@@ -123,6 +123,8 @@ pub struct Q1Projection {
     rule_wdet: Vec<[f64; FULL_POINTS]>,
     cuts: Vec<ElementCut>,
     ghost: Vec<GhostFace>,
+    /// The faces the pattern of `matrix` holds.
+    face_pattern: FacePattern,
 }
 
 /// Ghost-penalty factor of the projections: face coefficient γ h³, the scale of the mass
@@ -161,6 +163,7 @@ impl Q1Projection {
             rule: rule.points.into_iter().zip(rule.weights).collect(),
             cuts: vec![ElementCut::Fluid; mesh.n_elements()],
             ghost: Vec::new(),
+            face_pattern: FacePattern::default(),
         }
     }
 
@@ -173,11 +176,15 @@ impl Q1Projection {
         assert_eq!(cuts.len(), mesh.n_elements(), "one ElementCut per element");
         self.fixed = inactive_vertices(mesh, &cuts);
         let ghost = ghost_faces(mesh, &cuts);
-        if ghost != self.ghost {
-            self.matrix = pattern_with_faces(mesh, &ghost);
+        if !self.face_pattern.holds(&ghost) {
+            // the faces couple vertices of neighbouring elements: a new pattern, holding the
+            // faces around these for the steps to come
+            let (pattern, faces) = FacePattern::around(mesh, &ghost);
+            self.matrix = pattern_with_faces(mesh, &faces);
             self.solver = None;
-            self.ghost = ghost;
+            self.face_pattern = pattern;
         }
+        self.ghost = ghost;
         self.cuts = cuts;
         self.factored = false;
     }

@@ -9,11 +9,12 @@
 
 use std::time::Instant;
 
-use super::cache::{assembled_each_step, dilate};
+use super::cache::assembled_each_step;
 use super::dofs::{element_dofs, MAX_EL_DOFS};
 use super::{FlowFactorization, Stokes, RESIDUAL_TOL};
 use crate::fem::linsolve::SolveError;
 use crate::fem::substructure::Substructured;
+use crate::mesh::dilate;
 
 /// Rings of elements added around the elements that may change: one for the ghost-penalty
 /// faces next to them (which couple the neighbouring element), one so that the band's boundary

@@ -38,7 +38,8 @@ pub use dofs::Layout;
 use std::collections::HashMap;
 use std::time::Instant;
 
-use cache::{dilate, RectangleMatrices, MOVING_MARGIN};
+use crate::mesh::dilate;
+use cache::{RectangleMatrices, MOVING_MARGIN};
 use constraints::{push_condition_values, VelocityCondition};
 use pattern::{build_pattern, reach_for, Reach};
 

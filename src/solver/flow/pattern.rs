@@ -1,9 +1,9 @@
 //! Sparsity pattern of the flow matrix, and each particle's reach: the elements coupled to its
 //! rigid-body unknowns, so that the pattern and its symbolic factorization outlive small moves.
 
-use super::cache::dilate;
 use super::dofs::{element_dofs, Layout, MAX_EL_DOFS};
 use crate::fem::sparse::{PatternBuilder, SparseMatrix};
+use crate::mesh::dilate;
 use crate::mesh::{bounding_box, Mesh, Shape};
 use crate::solver::ghost::faces_where;
 use crate::solver::rigid::{ElementCut, Particle};
