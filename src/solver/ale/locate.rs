@@ -5,7 +5,7 @@
 use super::AleError;
 use crate::fem::element::{q1, q2_map};
 use crate::fem::newton_inverse::{newton_inverse, Bound, Newton};
-use crate::mesh::{Mesh, Shape};
+use crate::mesh::{bounding_box, Mesh, Shape};
 
 /// Newton tolerance of the point location, in reference coordinates. Round-off limits ξ to about
 /// ε|x|/h (7e-14 for |x| = 2, h = 0.013): a tolerance of 1e-13 failed there (300×75 channel,
@@ -105,12 +105,13 @@ pub(super) fn pre_image(
             let xe = &mesh.element_coords[e];
             let xc = nearest_image(x, xe[4], period.filter(|_| mesh.shape == Shape::Rectangle));
             let start = if (dx, dy) == (0, 0) { xic } else { [0.0, 0.0] };
-            let Some(xi) = newton(xe, &mesh.element_vertices[e], d, xc, start) else {
+            let map = ElementMap::of(mesh, xe);
+            let Some(xi) = newton(&map, &mesh.element_vertices[e], d, xc, start) else {
                 continue;
             };
             let out = (xi[0].abs() - 1.0).max(xi[1].abs() - 1.0);
             if out <= INSIDE_TOL {
-                let p = q2_map(xe, xi).0;
+                let p = map.at(xi).0;
                 return Ok((e, clamp(xi), nearest_image(p, x, period)));
             }
             if best.as_ref().is_none_or(|b| out < b.0) {
@@ -122,7 +123,7 @@ pub(super) fn pre_image(
     match best {
         Some((out, e, xi)) if out < CURVED_BOUNDARY_TOL => {
             let xi = clamp(xi);
-            let p = q2_map(&mesh.element_coords[e], xi).0;
+            let p = ElementMap::of(mesh, &mesh.element_coords[e]).at(xi).0;
             Ok((e, xi, nearest_image(p, x, period)))
         }
         _ => Err(not_found()),
@@ -133,10 +134,47 @@ fn clamp(xi: [f64; 2]) -> [f64; 2] {
     xi.map(|v| v.clamp(-1.0, 1.0))
 }
 
+/// The geometric map X_E of an element: affine on a rectangle mesh (straight sides, the Q2
+/// nodes at the midpoints: `Axis::q2_coord`), the isoparametric Q2 map otherwise (the annulus).
+enum ElementMap<'a> {
+    Affine { center: [f64; 2], half: [f64; 2] },
+    Q2(&'a [[f64; 2]; 9]),
+}
+
+impl<'a> ElementMap<'a> {
+    fn of(mesh: &Mesh, xe: &'a [[f64; 2]; 9]) -> Self {
+        match mesh.shape {
+            Shape::Rectangle => {
+                let (lo, hi) = bounding_box(xe);
+                Self::Affine {
+                    center: [0.5 * (lo[0] + hi[0]), 0.5 * (lo[1] + hi[1])],
+                    half: [0.5 * (hi[0] - lo[0]), 0.5 * (hi[1] - lo[1])],
+                }
+            }
+            Shape::Annulus => Self::Q2(xe),
+        }
+    }
+
+    /// X_E(ξ) and its Jacobian.
+    #[inline]
+    fn at(&self, xi: [f64; 2]) -> ([f64; 2], [[f64; 2]; 2]) {
+        match self {
+            Self::Affine { center, half } => (
+                [center[0] + half[0] * xi[0], center[1] + half[1] * xi[1]],
+                [[half[0], 0.0], [0.0, half[1]]],
+            ),
+            Self::Q2(xe) => {
+                let (p, jac, _) = q2_map(xe, xi);
+                (p, jac)
+            }
+        }
+    }
+}
+
 /// Solves X_E(ξ) + Σ N_v(ξ) d_v = x for ξ by Newton ([`newton_inverse`]) from `start`; `None`
 /// without convergence, at a singular Jacobian or once an iterate leaves [−10, 10]².
 fn newton(
-    xe: &[[f64; 2]; 9],
+    map: &ElementMap<'_>,
     verts: &[usize; 4],
     d: &[[f64; 2]],
     x: [f64; 2],
@@ -149,7 +187,7 @@ fn newton(
     };
     let dv = verts.map(|v| d[v]);
     let residual = |xi| {
-        let (p, mut jac, _) = q2_map(xe, xi);
+        let (p, mut jac) = map.at(xi);
         let (n, dn) = q1(xi);
         let mut r = [x[0] - p[0], x[1] - p[1]];
         for a in 0..4 {
