@@ -32,7 +32,7 @@ mod pattern;
 mod tests;
 
 pub use crate::fem::substructure::Factorization as FlowFactorization;
-pub use band::BAND_FRACTION_LIMIT;
+pub use band::{BAND_FRACTION_LIMIT, INTERFACE_LIMIT};
 pub use dofs::Layout;
 
 use std::collections::HashMap;
@@ -173,7 +173,7 @@ pub struct Stokes {
     /// band solver failed (its placement or a factorization); 0 in every run measured.
     pub band_fallbacks: usize,
     /// Placements of the band declined because its interface was too large
-    /// ([`band::INTERFACE_LIMIT`]): the whole matrix was factored instead.
+    /// ([`INTERFACE_LIMIT`]): the whole matrix was factored instead.
     pub band_declines: usize,
     /// The placement (pattern and base rebuild counts) whose band was declined.
     band_declined: Option<(usize, usize)>,
