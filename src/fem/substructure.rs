@@ -60,10 +60,10 @@ pub struct Substructured {
     k_dofs: Vec<usize>,
     /// Number of far dofs (K indices below are F, the rest Γ).
     n_far: usize,
-    /// K with the values it was factored with.
-    k: SparseMatrix,
-    /// Position in A's values of each of K's values.
+    /// The positions in A's values of K's entries, ascending, and the values K was factored
+    /// with there (what [`fits`](Self::fits) compares, in the order of A's storage).
     k_src: Vec<usize>,
+    k_values: Vec<f64>,
     k_solver: DirectSolver,
     /// S on Γ, in the order of the Γ part of `k_dofs` (= of `m_dofs`).
     schur: Mat<f64>,
@@ -138,6 +138,9 @@ impl Substructured {
         let gamma_k: Vec<usize> = (n_far..k_dofs.len()).collect();
         let schur = k_solver.schur_complement(&gamma_k)?;
         let k_trailing = k_solver.trailing_supernodes(&gamma_k)?;
+        let mut k_src = k_src;
+        k_src.sort_unstable();
+        let k_values = k_src.iter().map(|&p| a.values[p]).collect();
 
         let (m, m_src) = submatrix(a, &m_dofs, Some(n_interior));
         let m_order: Vec<usize> = (0..m_dofs.len()).collect();
@@ -151,8 +154,8 @@ impl Substructured {
             z: vec![0.0; n_gamma],
             k_dofs,
             n_far,
-            k,
             k_src,
+            k_values,
             k_solver,
             schur,
             m_dofs,
@@ -197,7 +200,7 @@ impl Substructured {
     pub fn fits(&self, a: &SparseMatrix) -> bool {
         self.k_src
             .iter()
-            .zip(&self.k.values)
+            .zip(&self.k_values)
             .all(|(&p, &v)| a.values[p].to_bits() == v.to_bits())
     }
 
