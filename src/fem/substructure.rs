@@ -114,7 +114,16 @@ impl Substructured {
     /// field and Γ, eliminated in the order of `order`, a fill-reducing order of all dofs, with
     /// Γ last) and condenses it onto Γ, and analyses M. The band must not be empty.
     pub fn new(a: &SparseMatrix, band: &[bool], order: &[usize]) -> Result<Self, SolveError> {
-        let gamma = Self::interface(a, band);
+        Self::with_interface(a, band, &Self::interface(a, band), order)
+    }
+
+    /// [`new`](Self::new) with Γ already found ([`interface`](Self::interface)).
+    pub fn with_interface(
+        a: &SparseMatrix,
+        band: &[bool],
+        gamma: &[bool],
+        order: &[usize],
+    ) -> Result<Self, SolveError> {
         // numberings in the elimination order: K = F then Γ, M = I then Γ
         let far: Vec<usize> = order.iter().copied().filter(|&d| !band[d]).collect();
         let iface: Vec<usize> = order.iter().copied().filter(|&d| gamma[d]).collect();

@@ -37,9 +37,7 @@ use crate::fem::quadrature::gauss_quad;
 use crate::fem::sparse::{q1_pattern, SparseMatrix};
 use crate::mesh::Mesh;
 use crate::rheology::{log_conformation_rhs, Giesekus, Sym2, VelocityGradient};
-use crate::solver::ghost::{
-    face_vertices, ghost_face_matrix, ghost_faces, pattern_with_faces, FacePattern, GhostFace,
-};
+use crate::solver::ghost::{face_vertices, ghost_face_matrix, ghost_faces, FacePattern, GhostFace};
 pub use crate::solver::log_conformation_history::LogConformationHistory;
 use crate::solver::rigid::ElementCut;
 pub use crate::solver::supg::{length_along, supg_tau, SupgVelocity};
@@ -239,13 +237,11 @@ impl LogConformationTransport {
         assert_eq!(cuts.len(), self.n_elements, "one ElementCut per element");
         self.fixed = inactive_vertices(mesh, &cuts);
         let ghost = ghost_faces(mesh, &cuts);
-        if !self.face_pattern.holds(&ghost) {
-            // the faces couple vertices of neighbouring elements: a new pattern, holding the
-            // faces around these for the steps to come
-            let (pattern, faces) = FacePattern::around(mesh, &ghost);
-            self.matrix = pattern_with_faces(mesh, &faces);
+        // the faces couple vertices of neighbouring elements: a new pattern when they leave
+        // those the last one was built for
+        if let Some(matrix) = self.face_pattern.matrix_for(mesh, &ghost) {
+            self.matrix = matrix;
             self.solver = None;
-            self.face_pattern = pattern;
         }
         self.ghost = ghost;
         self.cuts = cuts;

@@ -15,9 +15,7 @@ use crate::fem::sparse::{q1_pattern, SparseMatrix};
 use crate::mesh::Mesh;
 use crate::rheology::{Sym2, VelocityGradient};
 use crate::solver::constitutive::{inactive_vertices, ConstitutiveError};
-use crate::solver::ghost::{
-    face_vertices, ghost_face_matrix, ghost_faces, pattern_with_faces, FacePattern, GhostFace,
-};
+use crate::solver::ghost::{face_vertices, ghost_face_matrix, ghost_faces, FacePattern, GhostFace};
 use crate::solver::rigid::ElementCut;
 
 /// Value of a nodal Q1 tensor field at reference point `xi` of element `e`.
@@ -176,13 +174,11 @@ impl Q1Projection {
         assert_eq!(cuts.len(), mesh.n_elements(), "one ElementCut per element");
         self.fixed = inactive_vertices(mesh, &cuts);
         let ghost = ghost_faces(mesh, &cuts);
-        if !self.face_pattern.holds(&ghost) {
-            // the faces couple vertices of neighbouring elements: a new pattern, holding the
-            // faces around these for the steps to come
-            let (pattern, faces) = FacePattern::around(mesh, &ghost);
-            self.matrix = pattern_with_faces(mesh, &faces);
+        // the faces couple vertices of neighbouring elements: a new pattern when they leave
+        // those the last one was built for
+        if let Some(matrix) = self.face_pattern.matrix_for(mesh, &ghost) {
+            self.matrix = matrix;
             self.solver = None;
-            self.face_pattern = pattern;
         }
         self.ghost = ghost;
         self.cuts = cuts;

@@ -252,6 +252,17 @@ impl FacePattern {
         !self.held.is_empty() && faces.iter().all(|f| self.held[face_slot(f)])
     }
 
+    /// The Q1 pattern with the couplings of the faces around `faces` when `faces` leave those
+    /// this pattern holds (it then holds the new ones), `None` while it holds them.
+    pub fn matrix_for(&mut self, mesh: &Mesh, faces: &[GhostFace]) -> Option<SparseMatrix> {
+        if self.holds(faces) {
+            return None;
+        }
+        let (pattern, around) = Self::around(mesh, faces);
+        *self = pattern;
+        Some(pattern_with_faces(mesh, &around))
+    }
+
     /// The faces around `faces` (see [`FacePattern`]), and the pattern that holds them.
     pub fn around(mesh: &Mesh, faces: &[GhostFace]) -> (Self, Vec<GhostFace>) {
         let mut touched = vec![false; mesh.n_elements()];
@@ -409,5 +420,42 @@ mod tests {
             assert!(q2_energy(&kink) > 1e-3, "{face:?}: {}", q2_energy(&kink));
             assert!(q1_energy(&kink) > 1e-3, "{face:?}: {}", q1_energy(&kink));
         }
+    }
+
+    #[test]
+    fn a_face_pattern_holds_the_faces_around_those_it_was_built_for() {
+        let mesh = Mesh::rectangle(
+            crate::mesh::Axis::uniform(0.0, 2.0, 20),
+            crate::mesh::Axis::uniform(0.0, 1.0, 10),
+            true,
+        );
+        let nx = 20;
+        let face = |ex: usize, ey: usize, side| GhostFace {
+            first: ey * nx + ex,
+            second: match side {
+                FaceSide::Right => ey * nx + (ex + 1) % nx,
+                FaceSide::Top => (ey + 1) * nx + ex,
+            },
+            side,
+        };
+        let mut fp = FacePattern::default();
+        assert!(!fp.holds(&[]), "nothing before the first pattern");
+        let used = [face(5, 5, FaceSide::Right)];
+        let m = fp.matrix_for(&mesh, &used).expect("a first pattern");
+        assert!(fp.holds(&used));
+        // faces two rings away (between elements within FACE_PATTERN_MARGIN of the used ones) are
+        // held and coupled in the pattern; three rings away not
+        let near = face(7, 3, FaceSide::Top);
+        assert!(fp.holds(&[near]) && fp.matrix_for(&mesh, &[near]).is_none());
+        let fv = face_vertices(&mesh, &near);
+        let couples = |m: &SparseMatrix| {
+            fv.iter()
+                .all(|&i| fv.iter().all(|&j| m.column(j).0.binary_search(&i).is_ok()))
+        };
+        let plain = crate::fem::sparse::q1_pattern(mesh.n_vertices(), &mesh.element_vertices);
+        assert!(couples(&m) && !couples(&plain));
+        let far = face(9, 5, FaceSide::Right);
+        assert!(!fp.holds(&[far]));
+        assert!(fp.matrix_for(&mesh, &[far]).is_some() && fp.holds(&[far]));
     }
 }

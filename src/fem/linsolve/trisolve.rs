@@ -199,11 +199,12 @@ impl DirectSolver {
     }
 }
 
-/// Σ aᵢ bᵢ over the shorter of the two, in four independent sums (so that it vectorizes).
+/// Σ aᵢ bᵢ of two slices of one length, in four independent sums (so that it vectorizes).
 fn dot(a: &[f64], b: &[f64]) -> f64 {
+    debug_assert_eq!(a.len(), b.len());
     let mut acc = [0.0; 4];
-    let (a4, a1) = a.split_at(a.len() - a.len() % 4);
-    let (b4, b1) = b.split_at(a4.len().min(b.len()));
+    let split = a.len() - a.len() % 4;
+    let ((a4, a1), (b4, b1)) = (a.split_at(split), b.split_at(split));
     for (x, y) in a4.chunks_exact(4).zip(b4.chunks_exact(4)) {
         for k in 0..4 {
             acc[k] += x[k] * y[k];

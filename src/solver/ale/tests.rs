@@ -93,6 +93,26 @@ fn displacement_is_rigid_on_the_patch_zero_on_walls_and_bounded() {
     assert!(on_patch >= 4, "{on_patch}");
 }
 
+#[test]
+fn a_reused_laplace_factorization_gives_the_displacement_of_a_fresh_one() {
+    // the same rigid patch (same fixed vertices) with other values, and then another patch:
+    // bitwise what a map that never solved before computes
+    let mesh = channel();
+    let mut ale = TemporaryAle::new(&mesh);
+    let moves = [
+        one_move([0.5, 0.05], [0.012, -0.004]),
+        one_move([0.5, 0.05], [-0.003, 0.007]),
+        one_move([-0.4, -0.1], [0.01, 0.0]),
+    ];
+    for m in &moves {
+        let reused = ale.displacement(&mesh, m, Some(2.0)).unwrap();
+        let fresh = TemporaryAle::new(&mesh)
+            .displacement(&mesh, m, Some(2.0))
+            .unwrap();
+        assert_eq!(reused, fresh);
+    }
+}
+
 /// The pre-image xⁿ (in element e at ξ) moved by the displacement there: xⁿ + d(xⁿ).
 fn displaced(mesh: &Mesh, d: &[[f64; 2]], e: usize, xi: [f64; 2], xn: [f64; 2]) -> [f64; 2] {
     let dn = q1(xi).0;

@@ -80,7 +80,9 @@ impl Stokes {
             let placed = self
                 .dof_blocks()
                 .elimination_order(&self.matrix)
-                .and_then(|order| Substructured::new(&self.matrix, &band, &order));
+                .and_then(|order| {
+                    Substructured::with_interface(&self.matrix, &band, &interface, &order)
+                });
             match placed {
                 Ok(solver) => self.band_solver = Some(solver),
                 Err(_) => {

@@ -249,9 +249,19 @@ fn fresh_small(mesh: &Mesh, center: [f64; 2], factorization: FlowFactorization) 
         motion: Motion::Free,
     }];
     let cuts = compute_cuts(mesh, &p, Some(period(mesh)), CutOptions::default()).unwrap();
+    sheared(mesh, p, cuts, factorization)
+}
+
+/// Stokes flow between walls sliding at ∓½ around `particles`, factored as `factorization` says.
+fn sheared(
+    mesh: &Mesh,
+    particles: Vec<Particle>,
+    cuts: Vec<ElementCut>,
+    factorization: FlowFactorization,
+) -> Stokes {
     let mut params = StokesParams::new(1.0, 0.0, SolverKind::Lblt);
     params.factorization = factorization;
-    let mut st = Stokes::with_particles(mesh.clone(), params, p, cuts);
+    let mut st = Stokes::with_particles(mesh.clone(), params, particles, cuts);
     st.set_velocity(Side::Bottom, |_| [-0.5, 0.0]);
     st.set_velocity(Side::Top, |_| [0.5, 0.0]);
     st.pin_pressure();
@@ -321,13 +331,7 @@ fn a_band_whose_interface_is_too_large_gives_way_to_the_whole_matrix() {
     );
     let setup = |factorization| {
         let (p, cuts) = row_of_particles(&mesh, 0.0);
-        let mut params = StokesParams::new(1.0, 0.0, SolverKind::Lblt);
-        params.factorization = factorization;
-        let mut st = Stokes::with_particles(mesh.clone(), params, p, cuts);
-        st.set_velocity(Side::Bottom, |_| [-0.5, 0.0]);
-        st.set_velocity(Side::Top, |_| [0.5, 0.0]);
-        st.pin_pressure();
-        st
+        sheared(&mesh, p, cuts, factorization)
     };
     let (mut band, mut whole) = (
         setup(FlowFactorization::Band),
