@@ -79,6 +79,10 @@ pub enum Command {
         /// fictitious domain method (`numerics.method`).
         #[arg(long, value_enum, default_value_t = MethodArg::Xfem)]
         method: MethodArg,
+        /// How the cylinder's rigid-body motion is imposed (cylinder study): `weak`, or
+        /// `multiplier`, Lagrange multipliers on a ring (`numerics.rigid_condition`).
+        #[arg(long, value_enum, default_value_t = RigidConditionArg::Weak)]
+        rigid_condition: RigidConditionArg,
     },
     /// Run a performance benchmark.
     Bench {
@@ -230,6 +234,24 @@ pub enum MethodArg {
     Xfem,
     /// The fictitious domain method (thesis §2.3.4).
     Fdm,
+}
+
+/// How the rigid-body motion is imposed (`numerics.rigid_condition`).
+#[derive(Debug, Clone, Copy, PartialEq, Eq, ValueEnum)]
+pub enum RigidConditionArg {
+    /// The weak condition (the cases' default, thesis Ch. 5).
+    Weak,
+    /// Lagrange multipliers on a ring (thesis Chs. 2–4).
+    Multiplier,
+}
+
+impl From<RigidConditionArg> for crate::solver::multiplier::RigidCondition {
+    fn from(r: RigidConditionArg) -> Self {
+        match r {
+            RigidConditionArg::Weak => Self::Weak,
+            RigidConditionArg::Multiplier => Self::Multiplier,
+        }
+    }
 }
 
 /// The discretization of `--method` with the cut rule of `--cut-level` / `--interface`, as a case

@@ -69,12 +69,18 @@ pub(super) fn bench(command: Command) -> anyhow::Result<ExitCode> {
             println!("{b}");
         }
         BenchName::Drag => {
+            use crate::solver::multiplier::RigidCondition;
             use crate::solver::rigid::WeakForm;
             use crate::validate::xstokes::{cylinder_drag, NEWTONIAN_K};
             println!("| h/R | unknowns | K | rel. error | cut cells | assembly | symbolic | numeric | solve | total |");
             println!("|---|---|---|---|---|---|---|---|---|---|");
             for hh in h {
-                let r = cylinder_drag(hh, WeakForm::Symmetric, cut_options(cut_level, interface))?;
+                let r = cylinder_drag(
+                    hh,
+                    RigidCondition::Weak,
+                    WeakForm::Symmetric,
+                    cut_options(cut_level, interface),
+                )?;
                 let t = r.timings;
                 println!(
                     "| {hh} | {} | {:.4} | {:.1e} | {:.3} | {:.3} | {:.3} | {:.3} | {:.3} | {:.2} s |",

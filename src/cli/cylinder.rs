@@ -6,6 +6,7 @@
 use std::process::ExitCode;
 
 use crate::solver::cutcells::Discretization;
+use crate::solver::multiplier::RigidCondition;
 use crate::solver::rigid::WeakForm;
 use crate::validate::xstokes::{
     cylinder_drag, cylinder_drag_viscoelastic, fdm_published, FDM_K_L_TOL, NEWTONIAN_K,
@@ -21,12 +22,14 @@ pub(super) fn validate_cylinder(
     t_max: f64,
     out: &std::path::Path,
     method: Discretization,
+    condition: RigidCondition,
 ) -> anyhow::Result<ExitCode> {
     let fdm = method == Discretization::FictitiousDomain;
-    let name = if fdm {
-        "fictitious domain method"
-    } else {
-        "XFEM"
+    let name = match (fdm, condition) {
+        (true, RigidCondition::Weak) => "fictitious domain method, weak rigid-body condition",
+        (true, RigidCondition::Multiplier) => "fictitious domain method, Lagrange multipliers",
+        (false, RigidCondition::Weak) => "XFEM, weak rigid-body condition",
+        (false, RigidCondition::Multiplier) => "XFEM, Lagrange multipliers",
     };
     // the verdict: XFEM's K_L against the boundary-fitted reference, FDM's against the thesis'
     // FDM K_L on its mesh M3 (Table 2.4); FDM's K depends on the mesh by nature and is shown
@@ -69,11 +72,11 @@ pub(super) fn validate_cylinder(
     let (mut k, mut k_l) = (f64::NAN, f64::NAN);
     for &h in hs {
         let (dofs, steps, steady, time) = if wi == 0.0 {
-            let r = cylinder_drag(h, WeakForm::Symmetric, method)?;
+            let r = cylinder_drag(h, condition, WeakForm::Symmetric, method)?;
             (k, k_l) = (r.k_stress, r.k_reaction);
             (r.dofs, "—".to_string(), true, format!("{:.1} s", r.seconds))
         } else {
-            let r = cylinder_drag_viscoelastic(wi, h, dt, t_max, method)?;
+            let r = cylinder_drag_viscoelastic(wi, h, dt, t_max, condition, method)?;
             (k, k_l) = (r.k_stress, r.k_reaction);
             write_csvs(out, wi, h, fdm, &r)?;
             let time = format!("{:.3} s/step", r.seconds_per_step);

@@ -44,9 +44,16 @@ pub fn run(cli: Cli) -> anyhow::Result<ExitCode> {
             cut_level,
             interface,
             method,
+            rigid_condition,
         } => match study {
             _ if method != args::MethodArg::Xfem && study != Study::Cylinder => {
                 anyhow::bail!("--method fdm applies to `xpflow validate cylinder` only")
+            }
+            _ if rigid_condition != args::RigidConditionArg::Weak && study != Study::Cylinder => {
+                anyhow::bail!(
+                    "--rigid-condition applies to `xpflow validate cylinder` only \
+                     (`xfem-stokes` runs both conditions)"
+                )
             }
             Study::StokesMms | Study::Couette => validate::validate(study, levels, solver.into()),
             Study::ExtrudateSwell => extrudate::validate_extrudate_swell(
@@ -60,6 +67,7 @@ pub fn run(cli: Cli) -> anyhow::Result<ExitCode> {
                 t_max,
                 &out,
                 args::discretization(method, cut_level, interface)?,
+                rigid_condition.into(),
             ),
             _ => validate::validate_particles(
                 study,

@@ -63,8 +63,13 @@ pub(super) fn validate_particles(
     let mut ok = true;
     match study {
         Study::XfemStokes => {
-            for form in [WeakForm::Symmetric, WeakForm::Thesis] {
-                let s = cylinder_exact(levels, form, cut)?;
+            use crate::solver::multiplier::RigidCondition;
+            for (condition, form) in [
+                (RigidCondition::Weak, WeakForm::Symmetric),
+                (RigidCondition::Weak, WeakForm::Thesis),
+                (RigidCondition::Multiplier, WeakForm::Symmetric),
+            ] {
+                let s = cylinder_exact(levels, condition, form, cut)?;
                 println!("{}", s.to_markdown());
                 ok &= s.passed();
             }

@@ -4,6 +4,7 @@
 use super::method::Method;
 use super::time_step::TimeStep;
 use crate::fem::substructure::Factorization;
+use crate::solver::multiplier::RigidCondition;
 use serde::{Deserialize, Serialize};
 
 use crate::geometry::layout;
@@ -197,6 +198,11 @@ pub struct Numerics {
     /// domain method ([`Method`]). Not in the case id when default.
     #[serde(default, skip_serializing_if = "Method::is_xfem")]
     pub method: Method,
+    /// How the rigid-body motion is imposed on the particle boundaries: `weak` (default, thesis
+    /// Ch. 5) or `multiplier`, Lagrange multipliers on a ring whose integral is the drag K_L
+    /// (thesis Chs. 2–4; [`RigidCondition`]). Not in the case id when default.
+    #[serde(default, skip_serializing_if = "RigidCondition::is_weak")]
+    pub rigid_condition: RigidCondition,
     /// How the flow matrix is factored when the particles moved: `band` (default: the far field
     /// once per placement of a band around the particles, the band every step) or `whole` (the
     /// whole matrix every step; the same solution to the solver's tolerance, for comparisons).

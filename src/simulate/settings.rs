@@ -19,6 +19,7 @@ use crate::solver::constitutive_stress::Coupling;
 use crate::solver::cutcells::Discretization;
 use crate::solver::flow::FLOW_GHOST_PENALTY;
 use crate::solver::moving::step_count;
+use crate::solver::multiplier::{RigidCondition, MIN_RING_NODES, RING_SPACING};
 use crate::solver::rigid::FICTITIOUS_DOMAIN_PENALTY;
 use crate::solver::viscoelastic::ViscoelasticParams;
 use crate::xfem::{CutOptions, InterfaceApprox};
@@ -199,10 +200,12 @@ pub fn fluid_params(case: &CaseSpec) -> ViscoelasticParams {
     if lambda == 0.0 {
         let mut params = ViscoelasticParams::newtonian(eta_s + eta_p, dt, t_end);
         params.factorization = case.numerics.factorization;
+        params.rigid_condition = case.numerics.rigid_condition;
         return params;
     }
     let mut params = ViscoelasticParams::new(eta_s, eta_p, lambda, case.fluid.alpha, dt, t_end);
     params.factorization = case.numerics.factorization;
+    params.rigid_condition = case.numerics.rigid_condition;
     if case.numerics.dt.adaptive().is_some() {
         // the SUPG τ of the initial step throughout: the spatial discretization stays put
         params.supg = SupgVelocity::LocalAt(dt);
@@ -242,6 +245,7 @@ impl Settings {
         let lu = params.coupling == Coupling::SemiImplicit && polymer;
         let cut = cut_options(case);
         let xfem = n.method == Method::Xfem;
+        let multiplier = n.rigid_condition == RigidCondition::Multiplier;
         // the ghost penalties act on the faces of XFEM's cut cells only: none exist otherwise
         let ghost = |gamma: f64| if xfem { gamma } else { 0.0 };
         Settings {
@@ -285,18 +289,23 @@ impl Settings {
                 devss_theta: if polymer { params.theta } else { 0.0 },
                 coupled_g: polymer && params.coupled_g,
                 solver: if lu { "LU" } else { "LBLT" },
-                factorization: if lu {
+                // the band is condensed onto velocity dofs: multipliers factor the whole matrix
+                factorization: if lu || multiplier {
                     Factorization::Whole
                 } else {
                     n.factorization
                 },
-                rigid_condition: if xfem {
-                    "symmetric weak condition, kappa = eta0".into()
-                } else {
-                    format!(
+                rigid_condition: match (multiplier, xfem) {
+                    (true, _) => format!(
+                        "Lagrange multipliers on a P1 ring per particle, element size \
+                         {RING_SPACING} x that of the elements it crosses (at least \
+                         {MIN_RING_NODES} nodes); force and torque from the multipliers"
+                    ),
+                    (false, true) => "symmetric weak condition, kappa = eta0".into(),
+                    (false, false) => format!(
                         "weak condition on a two-sided boundary: penalty only, kappa = \
                          {FICTITIOUS_DOMAIN_PENALTY} eta0"
-                    )
+                    ),
                 },
                 ghost_penalty: ghost(FLOW_GHOST_PENALTY),
                 stress_ghost_penalty: ghost(GHOST_PENALTY),
@@ -382,6 +391,31 @@ mod tests {
         );
         assert!(s.flow.rigid_condition.contains("penalty only"));
         assert!(!s.to_toml().contains("[cut]"));
+    }
+
+    /// `numerics.rigid_condition = "multiplier"` reaches the solver's parameters and the resolved
+    /// settings (whole-matrix factorization: the band is condensed onto velocity dofs); `weak`
+    /// is the default and leaves the case id as it was.
+    #[test]
+    fn the_multiplier_condition_reaches_the_solver() {
+        use crate::sweep::expand::case_id;
+        let base = serde_json::json!({ "mesh": [40, 10], "dt": 0.04, "t_end": 1.0 });
+        let weak = case(base.clone());
+        let mut with = base.clone();
+        with["rigid_condition"] = "multiplier".into();
+        let multiplier = case(with);
+        assert_eq!(fluid_params(&weak).rigid_condition, RigidCondition::Weak);
+        assert_eq!(
+            fluid_params(&multiplier).rigid_condition,
+            RigidCondition::Multiplier
+        );
+        let s = Settings::of(&multiplier);
+        assert!(s.flow.rigid_condition.contains("Lagrange multipliers"));
+        assert_eq!(s.flow.factorization, Factorization::Whole);
+        let mut named = base;
+        named["rigid_condition"] = "weak".into();
+        assert_eq!(case_id(&case(named)), case_id(&weak));
+        assert_ne!(case_id(&multiplier), case_id(&weak));
     }
 
     /// The stress coupling resolved from `auto`: explicit (LBLᵀ) with a solvent, semi-implicit

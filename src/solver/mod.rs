@@ -11,6 +11,7 @@ pub mod free_surface;
 pub mod ghost;
 pub mod log_conformation_history;
 pub mod moving;
+pub mod multiplier;
 pub mod norms;
 pub mod polymer_terms;
 pub mod rigid;

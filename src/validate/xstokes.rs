@@ -9,6 +9,7 @@ use crate::geometry::CylinderChannel;
 use crate::mesh::{Axis, Mesh, Side};
 use crate::solver::cutcells::{compute_cuts, CutError, Discretization};
 use crate::solver::flow::{Stokes, StokesParams, StokesSolution};
+use crate::solver::multiplier::RigidCondition;
 use crate::solver::norms::ExactFlow;
 use crate::solver::rigid::{ElementCut, Motion, Particle, WeakForm};
 use crate::xfem::cut_quadrature::CutOptions;
@@ -208,9 +209,11 @@ pub fn fluid_errors(
 
 /// Thesis §2.4: square of side 2 (shifted by a small offset so the cylinder cuts elements
 /// arbitrarily), cylinder R = 0.2 at the origin held fixed (exact u = 0 on it) by the weak
-/// condition, exact velocity on the square's sides. Meshes N × N with N = 10·2^l.
+/// condition of form `form` or by multipliers (`condition`), exact velocity on the square's
+/// sides. Meshes N × N with N = 10·2^l.
 pub fn cylinder_exact(
     levels: usize,
+    condition: RigidCondition,
     form: WeakForm,
     opts: CutOptions,
 ) -> Result<ConvStudy, StudyError> {
@@ -235,6 +238,7 @@ pub fn cylinder_exact(
         let cuts = compute_cuts(&mesh, &particles, None, opts)?;
         let mut params = StokesParams::new(1.0, 0.0, solver_for(form));
         params.rigid_form = form;
+        params.rigid_condition = condition;
         let mut st = Stokes::with_particles(mesh, params, particles, cuts.clone());
         for side in [Side::Bottom, Side::Top, Side::Left, Side::Right] {
             st.set_velocity(side, move |x| exact.u(x));
@@ -250,7 +254,14 @@ pub fn cylinder_exact(
         });
     }
     Ok(ConvStudy {
-        title: format!("XFEM Stokes, exact cylinder flow (thesis §2.4), {form:?} weak condition"),
+        title: match condition {
+            RigidCondition::Weak => {
+                format!("XFEM Stokes, exact cylinder flow (thesis §2.4), {form:?} weak condition")
+            }
+            RigidCondition::Multiplier => {
+                "XFEM Stokes, exact cylinder flow (thesis §2.4), Lagrange multipliers".to_string()
+            }
+        },
         columns: vec![
             "ε_u (L2, rel)".into(),
             "ε_p (L2, rel)".into(),
@@ -318,6 +329,7 @@ pub struct DragResult {
 /// method (thesis Table 2.4: K = 80.262, K_L = 132.426 on its mesh M3).
 pub fn cylinder_drag(
     h: f64,
+    condition: RigidCondition,
     form: WeakForm,
     method: impl Into<Discretization>,
 ) -> Result<DragResult, StudyError> {
@@ -329,6 +341,7 @@ pub fn cylinder_drag(
     let cut_seconds = tc.elapsed().as_secs_f64();
     let mut params = StokesParams::new(1.0, 0.0, solver_for(form));
     params.rigid_form = form;
+    params.rigid_condition = condition;
     let mut st = Stokes::with_particles(mesh, params, particles, cuts);
     st.set_velocity(Side::Bottom, |_| [0.0, 0.0]);
     st.set_velocity(Side::Top, |_| [0.0, 0.0]);
@@ -444,11 +457,13 @@ pub fn cylinder_drag_viscoelastic(
     h: f64,
     dt: f64,
     t_max: f64,
+    condition: RigidCondition,
     method: impl Into<Discretization>,
 ) -> Result<ViscoDragResult, StudyError> {
     use crate::solver::viscoelastic::{ViscoelasticFlow, ViscoelasticParams};
     let (mesh, particles, cuts) = cylinder_channel(h, method.into())?;
-    let params = ViscoelasticParams::new(0.59, 0.41, wi, 0.0, dt, t_max);
+    let mut params = ViscoelasticParams::new(0.59, 0.41, wi, 0.0, dt, t_max);
+    params.rigid_condition = condition;
     let mut flow = ViscoelasticFlow::with_particles(mesh, params, particles, cuts)?;
     crate::solver::moving::apply_walls(&CylinderChannel::BENCHMARK, &mut flow);
     flow.set_flow_rate(CylinderChannel::BENCHMARK.flow_rate())?;

@@ -1,5 +1,6 @@
 //! Assembly of the flow system: the element loop (cached fluid base, rectangles by their sides,
 //! fluid and cut elements with the weak rigid-body condition, body force and polymer stress),
+//! the multiplier rigid-body condition where it replaces the weak one,
 //! the patch ghost penalty of velocity γ (η + θ)/h² and pressure −γ/(η + θ) (and θγ on G), and
 //! the elimination of the constraints.
 
@@ -12,6 +13,7 @@ use super::Stokes;
 use crate::fem::element::{physical_gradients, q1, q2, q2_map};
 use crate::mesh::Shape;
 use crate::solver::ghost::{ghost_faces, ghost_patch_matrices};
+use crate::solver::multiplier::RigidCondition;
 use crate::solver::polymer_terms::{boundary_terms, volume_terms, PolymerStress};
 use crate::solver::rigid::{jump_vectors, weak_rigid_kernel, CutElement, ElementCut};
 
@@ -52,6 +54,8 @@ impl Stokes {
         let mut fe = [0.0; MAX_EL_DOFS];
         let tab = shape_table(&self.rule);
         let mut dn = [[0.0; 2]; 9];
+        // the weak condition's terms on the boundary pieces (the multipliers are added below)
+        let weak = self.params.rigid_condition == RigidCondition::Weak;
         for e in 0..self.mesh.n_elements() {
             element_dofs(&self.mesh, &lay, e, &mut dofs);
             let xe = &self.mesh.element_coords[e];
@@ -64,7 +68,12 @@ impl Stokes {
                 ElementCut::Fluid => None,
                 ElementCut::Cut(c) => Some(c),
             };
-            let ndc = nd + 3 * cut.map_or(0, |c| c.particles.len());
+            let pieces = if weak {
+                cut.map_or(&[][..], |c| &c.particles[..])
+            } else {
+                &[]
+            };
+            let ndc = nd + 3 * pieces.len();
             assert!(
                 ndc <= MAX_EL_DOFS,
                 "element {e} is cut by more than 4 particle pieces"
@@ -146,7 +155,7 @@ impl Stokes {
                             volume_terms(ke, fe, ndc, wref * det, &n2, &dn, &lin);
                         }
                     }
-                    for (slot, pc) in cut.particles.iter().enumerate() {
+                    for (slot, pc) in pieces.iter().enumerate() {
                         dofs.extend((0..3).map(|c| lay.rigid(pc.particle, c)));
                         let ce = CutElement::of(xe, cut, pc);
                         let off = nd + 3 * slot;
@@ -177,6 +186,9 @@ impl Stokes {
             }
             self.matrix
                 .scatter(&dofs, ke, fe, &mut self.rhs, &self.unconstrained);
+        }
+        if !weak {
+            self.assemble_multipliers();
         }
         if self.params.ghost_penalty > 0.0 {
             self.assemble_ghost_penalty();

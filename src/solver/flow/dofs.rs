@@ -1,5 +1,5 @@
 //! Numbering of the flow unknowns ([`Layout`]: velocity, pressure, G, the particles' rigid
-//! velocities), the local dof list of an element, and the node blocks and nested-dissection
+//! velocities, the multipliers of their rings), the local dof list of an element, and the node blocks and nested-dissection
 //! order handed to the LBLᵀ factorization.
 
 use super::Stokes;
@@ -18,6 +18,9 @@ pub struct Layout {
     pub with_g: bool,
     /// Number of particles (3 rigid unknowns each: U_x, U_y, ω).
     pub n_particles: usize,
+    /// Number of multiplier ring nodes of all particles (2 unknowns each: λ_x, λ_y; 0 with the
+    /// weak rigid-body condition, [`crate::solver::multiplier`]).
+    pub n_ring_nodes: usize,
 }
 
 impl Layout {
@@ -41,13 +44,18 @@ impl Layout {
     pub fn rigid(&self, i: usize, c: usize) -> usize {
         self.n_field_dofs() + 3 * i + c
     }
+    /// Multiplier component `c` at (global) ring node `k`.
+    #[inline]
+    pub fn multiplier(&self, k: usize, c: usize) -> usize {
+        self.n_field_dofs() + 3 * self.n_particles + 2 * k + c
+    }
     /// Number of field unknowns (velocity, pressure, G).
     pub fn n_field_dofs(&self) -> usize {
         2 * self.n_nodes + self.n_vertices + if self.with_g { 4 * self.n_vertices } else { 0 }
     }
     /// Total number of unknowns.
     pub fn n_dofs(&self) -> usize {
-        self.n_field_dofs() + 3 * self.n_particles
+        self.n_field_dofs() + 3 * self.n_particles + 2 * self.n_ring_nodes
     }
 }
 
@@ -113,9 +121,22 @@ impl Stokes {
                 }
             }
         }
+        // a particle's block holds its rigid unknowns and the multipliers of its ring, the
+        // multipliers first: both have zero diagonals (the LBLᵀ pivots inside supernodes only),
+        // and each is nonsingular once what it constrains is eliminated — the velocity (ordered
+        // before every particle block) for the multipliers, the multipliers for the rigid
+        // unknowns
         for i in 0..lay.n_particles {
             for c in 0..3 {
                 blocks.block[lay.rigid(i, c)] = (lay.n_nodes + i) as u32;
+                blocks.class[lay.rigid(i, c)] = 1;
+            }
+        }
+        for (i, ring) in self.rings.iter().enumerate() {
+            for k in ring.first..ring.first + ring.nodes {
+                for c in 0..2 {
+                    blocks.block[lay.multiplier(k, c)] = (lay.n_nodes + i) as u32;
+                }
             }
         }
         blocks

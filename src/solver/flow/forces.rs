@@ -1,10 +1,12 @@
-//! Hydrodynamic force and torque on each particle: the reaction of the weak rigid-body
-//! condition (consistent with the discrete momentum balance) and the stress integral
-//! −∫ σ(u_h, p_h)·n ds over the particle boundary.
+//! Hydrodynamic force and torque on each particle: the reaction of the rigid-body condition
+//! (the weak condition's rigid rows, or the integral of the multipliers; consistent with the
+//! discrete momentum balance) and the stress integral −∫ σ(u_h, p_h)·n ds over the particle
+//! boundary.
 
 use super::dofs::{element_dofs, MAX_EL_DOFS};
 use super::Stokes;
 use crate::fem::element::{physical_gradients, q1, q2, q2_map};
+use crate::solver::multiplier::RigidCondition;
 use crate::solver::rigid::{weak_rigid_kernel, CutElement, ElementCut};
 
 impl Stokes {
@@ -16,6 +18,10 @@ impl Stokes {
         let (mut reaction, mut stress) = (vec![[0.0; 3]; np], vec![[0.0; 3]; np]);
         if np == 0 {
             return (reaction, stress);
+        }
+        let weak = self.params.rigid_condition == RigidCondition::Weak;
+        if !weak {
+            reaction = self.multiplier_forces();
         }
         let nd = 22 + if lay.with_g { 16 } else { 0 };
         let mut dofs = Vec::with_capacity(MAX_EL_DOFS);
@@ -37,24 +43,26 @@ impl Stokes {
                 let i = pc.particle;
                 // reaction: −(rigid rows of the weak-condition kernel) · x
                 ke.iter_mut().for_each(|v| *v = 0.0);
-                let ce = CutElement::of(xe, cut, pc);
-                weak_rigid_kernel(
-                    &mut ke,
-                    nd + 3,
-                    nd,
-                    &ce,
-                    pc.center,
-                    self.params.eta,
-                    self.params.kappa,
-                    self.params.rigid_form,
-                );
-                for c in 0..3 {
-                    let row = &ke[(nd + c) * (nd + 3)..(nd + c + 1) * (nd + 3)];
-                    let mut r: f64 = (0..nd).map(|a| row[a] * self.sol[dofs[a]]).sum();
-                    r += (0..3)
-                        .map(|d| row[nd + d] * self.sol[lay.rigid(i, d)])
-                        .sum::<f64>();
-                    reaction[i][c] -= r;
+                if weak {
+                    let ce = CutElement::of(xe, cut, pc);
+                    weak_rigid_kernel(
+                        &mut ke,
+                        nd + 3,
+                        nd,
+                        &ce,
+                        pc.center,
+                        self.params.eta,
+                        self.params.kappa,
+                        self.params.rigid_form,
+                    );
+                    for c in 0..3 {
+                        let row = &ke[(nd + c) * (nd + 3)..(nd + c + 1) * (nd + 3)];
+                        let mut r: f64 = (0..nd).map(|a| row[a] * self.sol[dofs[a]]).sum();
+                        r += (0..3)
+                            .map(|d| row[nd + d] * self.sol[lay.rigid(i, d)])
+                            .sum::<f64>();
+                        reaction[i][c] -= r;
+                    }
                 }
                 // stress integral: force on the particle = −∫ σ(u_h, p_h)·n_fluid ds
                 for bp in &pc.points {

@@ -27,6 +27,7 @@ mod constraints;
 mod dofs;
 mod forces;
 mod kernels;
+mod multipliers;
 mod pattern;
 #[cfg(test)]
 mod tests;
@@ -41,6 +42,7 @@ use std::time::Instant;
 use crate::mesh::dilate;
 use cache::{RectangleMatrices, MOVING_MARGIN};
 use constraints::{push_condition_values, VelocityCondition};
+use multipliers::{links_cover, ring_links, rings_for, RingLink};
 use pattern::{build_pattern, reach_for, Reach};
 
 use crate::fem::element::{q1, q2_map};
@@ -49,6 +51,7 @@ use crate::fem::quadrature::{gauss_quad, QuadRule};
 use crate::fem::sparse::SparseMatrix;
 use crate::fem::substructure::Substructured;
 use crate::mesh::Mesh;
+use crate::solver::multiplier::{RigidCondition, Ring};
 use crate::solver::polymer_terms::PolymerStress;
 use crate::solver::rigid::{ElementCut, Particle, WeakForm};
 
@@ -61,6 +64,9 @@ pub struct StokesParams {
     pub theta: f64,
     /// Linear solver.
     pub solver: SolverKind,
+    /// How the rigid-body motion is imposed on the particle boundaries: the weak condition
+    /// (default) or Lagrange multipliers on a ring ([`crate::solver::multiplier`]).
+    pub rigid_condition: RigidCondition,
     /// Form of the weak rigid-body condition on particles.
     pub rigid_form: WeakForm,
     /// Stabilization parameter κ of the weak rigid-body condition (thesis: κ = η0).
@@ -84,6 +90,7 @@ impl StokesParams {
             eta,
             theta,
             solver,
+            rigid_condition: RigidCondition::Weak,
             rigid_form: WeakForm::Symmetric,
             kappa: eta + theta,
             coupled_g: true,
@@ -120,8 +127,9 @@ pub struct StokesSolution {
     pub g: Option<Vec<[f64; 4]>>,
     /// Rigid velocities (U_x, U_y, ω) of the particles.
     pub rigid: Vec<[f64; 3]>,
-    /// Hydrodynamic force and torque (F_x, F_y, T) on each particle from the weak-condition
-    /// reaction (consistent with the discrete momentum balance; ≈ 0 for free particles).
+    /// Hydrodynamic force and torque (F_x, F_y, T) on each particle from the reaction of the
+    /// rigid-body condition — the weak condition's, or the integral of the multipliers
+    /// (consistent with the discrete momentum balance; ≈ 0 for free particles).
     pub reaction: Vec<[f64; 3]>,
     /// The same from the stress integral −∫ σ(u_h, p_h)·n ds over the particle boundary.
     pub stress_force: Vec<[f64; 3]>,
@@ -183,6 +191,10 @@ pub struct Stokes {
     rule: QuadRule,
     particles: Vec<Particle>,
     cuts: Vec<ElementCut>,
+    /// The particles' multiplier rings (empty with the weak condition).
+    rings: Vec<Ring>,
+    /// The multiplier couplings the pattern holds ([`multipliers::ring_links`]).
+    links: Vec<RingLink>,
     /// Where the matrix may change while the pattern lasts (particles' reach, free-surface band).
     reach: Reach,
     /// Matrix values of the elements outside every particle's reach (fluid while the pattern
@@ -227,14 +239,20 @@ impl Stokes {
         cuts: Vec<ElementCut>,
     ) -> Self {
         assert_eq!(cuts.len(), mesh.n_elements(), "one ElementCut per element");
+        let rings = match params.rigid_condition {
+            RigidCondition::Multiplier => rings_for(&mesh, &particles, &cuts),
+            RigidCondition::Weak => Vec::new(),
+        };
         let layout = Layout {
             n_nodes: mesh.n_nodes(),
             n_vertices: mesh.n_vertices(),
             with_g: params.theta > 0.0 && params.coupled_g,
             n_particles: particles.len(),
+            n_ring_nodes: rings.iter().map(|r| r.nodes).sum(),
         };
         let reach = reach_for(&mesh, &particles, &cuts);
-        let matrix = build_pattern(&mesh, &layout, &reach);
+        let links = ring_links(&rings, &cuts);
+        let matrix = build_pattern(&mesh, &layout, &reach, &links);
         let n = layout.n_dofs();
         let n_elements = mesh.n_elements();
         let mut st = Self {
@@ -261,6 +279,8 @@ impl Stokes {
             rule: gauss_quad(3),
             particles,
             cuts,
+            rings,
+            links,
             reach,
             fluid_base: None,
             moving: vec![false; n_elements],
@@ -289,9 +309,11 @@ impl Stokes {
         );
         self.particles = particles;
         self.cuts = cuts;
-        if !self.reach.covers(&self.cuts) {
+        let links = ring_links(&self.rings, &self.cuts);
+        if !self.reach.covers(&self.cuts) || !links_cover(&self.links, &links) {
             self.reach = reach_for(&self.mesh, &self.particles, &self.cuts);
-            self.matrix = build_pattern(&self.mesh, &self.layout, &self.reach);
+            self.links = links;
+            self.matrix = build_pattern(&self.mesh, &self.layout, &self.reach, &self.links);
             self.solver = None;
             self.band_solver = None;
             self.fluid_base = None;
@@ -389,8 +411,11 @@ impl Stokes {
         let t0 = Instant::now();
         self.assemble(f, stress);
         let t1 = Instant::now();
+        // the band's far field is condensed onto an interface of velocity dofs; the multipliers'
+        // zero diagonals need the whole matrix's ordering (comparison mode: not optimized)
         if self.params.factorization == FlowFactorization::Band
             && self.params.solver == SolverKind::Lblt
+            && self.params.rigid_condition == RigidCondition::Weak
         {
             if let Some((residual, times)) = self.solve_by_band()? {
                 self.timings = Timings {

@@ -2,6 +2,7 @@
 //! rigid-body unknowns, so that the pattern and its symbolic factorization outlive small moves.
 
 use super::dofs::{element_dofs, Layout, MAX_EL_DOFS};
+use super::multipliers::{link_dofs, RingLink};
 use crate::fem::sparse::{PatternBuilder, SparseMatrix};
 use crate::mesh::dilate;
 use crate::mesh::{bounding_box, Mesh, Shape};
@@ -107,8 +108,14 @@ pub(super) fn reach_for(mesh: &Mesh, particles: &[Particle], cuts: &[ElementCut]
 
 /// The sparsity pattern of the flow matrix: every element (also those inside particles, which
 /// store zeros next to identity rows, so that a particle crossing the mesh does not change the
-/// pattern) and the rigid-body couplings of the elements in each particle's reach.
-pub(super) fn build_pattern(mesh: &Mesh, layout: &Layout, reach: &Reach) -> SparseMatrix {
+/// pattern), the rigid-body couplings of the elements in each particle's reach and the
+/// multiplier couplings `links` (none with the weak rigid-body condition).
+pub(super) fn build_pattern(
+    mesh: &Mesh,
+    layout: &Layout,
+    reach: &Reach,
+    links: &[RingLink],
+) -> SparseMatrix {
     let mut pb = PatternBuilder::new(layout.n_dofs());
     let mut dofs = Vec::with_capacity(MAX_EL_DOFS);
     let (mut g_ij, mut u_i) = (Vec::with_capacity(4), Vec::with_capacity(9));
@@ -161,6 +168,13 @@ pub(super) fn build_pattern(mesh: &Mesh, layout: &Layout, reach: &Reach) -> Spar
     // a particle's three rigid unknowns couple with each other even outside any cut
     for i in 0..layout.n_particles {
         pb.add_group(&[layout.rigid(i, 0), layout.rigid(i, 1), layout.rigid(i, 2)]);
+    }
+    // a ring node's multipliers with the velocity of the elements its arcs cross, the rigid
+    // unknowns and (zero) each other
+    for link in links {
+        let (rows, cols) = link_dofs(mesh, layout, link);
+        pb.add_group(&rows);
+        pb.add_coupling(&rows, &cols);
     }
     pb.build()
 }

@@ -3,6 +3,7 @@
 use super::ViscoelasticFlow;
 use crate::rheology::Sym2;
 use crate::solver::constitutive_projection::{fluid_mean, sym_at, velocity_gradient_at};
+use crate::solver::multiplier::RigidCondition;
 use crate::solver::rigid::{fictitious_domain, ElementCut};
 
 impl ViscoelasticFlow {
@@ -13,12 +14,17 @@ impl ViscoelasticFlow {
     /// current τ (the polymer consistency term of the rigid rows) and, with flow-rate control,
     /// the mean pressure gradient's traction f·(particle area). With the fictitious domain
     /// method the reaction is the whole force: the condition carries the jump of the total
-    /// traction, and the body force on the interior fluid.
+    /// traction, and the body force on the interior fluid. With multipliers
+    /// ([`crate::solver::multiplier`]) the reaction ∫λ ds is the whole traction, polymer
+    /// included (plus, with XFEM, the pressure gradient's traction).
     pub fn particle_forces(&self) -> Vec<[f64; 3]> {
         if fictitious_domain(&self.cuts) {
             return self.reaction.clone();
         }
-        let mut out = self.polymer_forces();
+        let mut out = match self.params.rigid_condition {
+            RigidCondition::Weak => self.polymer_forces(),
+            RigidCondition::Multiplier => vec![[0.0; 3]; self.reaction.len()],
+        };
         for (f, r) in out.iter_mut().zip(&self.reaction) {
             (0..3).for_each(|c| f[c] += r[c]);
         }

@@ -132,6 +132,7 @@ impl ViscoelasticFlow {
         };
         let mut sp = StokesParams::new(params.eta_s, params.theta, solver);
         sp.rigid_form = params.rigid_form;
+        sp.rigid_condition = params.rigid_condition;
         sp.coupled_g = params.coupled_g;
         sp.factorization = params.factorization;
         let (nv, nn) = (mesh.n_vertices(), mesh.n_nodes());

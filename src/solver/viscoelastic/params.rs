@@ -5,6 +5,7 @@ use crate::fem::substructure::Factorization;
 use crate::rheology::{Fluid, RheologyError};
 use crate::solver::constitutive::{ConstitutiveError, SupgVelocity};
 use crate::solver::constitutive_stress::Coupling;
+use crate::solver::multiplier::RigidCondition;
 use crate::solver::rigid::WeakForm;
 
 /// Steady-state tolerance of thesis §2.5.1: nodal changes of u and s below 1e-6 per step.
@@ -34,6 +35,9 @@ pub struct ViscoelasticParams {
     pub coupled_g: bool,
     /// Steady-state tolerance on the nodal change per step.
     pub steady_tol: f64,
+    /// How the rigid-body motion is imposed: the weak condition (default) or Lagrange
+    /// multipliers on a ring ([`crate::solver::multiplier`]).
+    pub rigid_condition: RigidCondition,
     /// Form of the weak rigid-body condition; [`WeakForm::Thesis`] (non-symmetric, coercive for
     /// any κ however small the cut) needs an LU flow solver, chosen automatically.
     pub rigid_form: WeakForm,
@@ -71,6 +75,7 @@ impl ViscoelasticParams {
             theta: eta_p,
             coupled_g: false,
             steady_tol: STEADY_TOL,
+            rigid_condition: RigidCondition::Weak,
             rigid_form: WeakForm::Symmetric,
             factorization: Factorization::Band,
             supg: SupgVelocity::Local,
