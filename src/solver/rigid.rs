@@ -45,6 +45,8 @@
 //! which carries the whole jump of the traction across Γ — the outer traction minus the
 //! interior fluid's, whose integral is the force on the interior (zero in Stokes flow without
 //! body force, −f·|P| with one: the reaction then includes the body force on the interior).
+//! The thesis' own condition, with multiplier unknowns on a ring and F_L = ∫λ ds itself, is the
+//! alternative `numerics.rigid_condition = "multiplier"` ([`crate::solver::multiplier`]).
 
 use nalgebra::{SMatrix, SVector};
 
