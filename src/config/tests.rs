@@ -466,6 +466,22 @@ fn an_adaptive_step_is_checked_field_by_field() {
     let fixed = CaseSpec::from_value(shear()).unwrap();
     let text = serde_json::to_value(&fixed.numerics).unwrap();
     assert!(text["dt"].is_number(), "{text}");
+    // the coupling-lag term is off unless asked for, and only then in the canonical form (the
+    // adaptive cases run before it existed keep their ids)
+    let canonical = |lag: Option<bool>| {
+        let mut dt = json!({"initial": 0.02, "min": 0.002, "max": 0.1, "tol": 1e-3});
+        if let Some(lag) = lag {
+            dt["coupling_lag"] = json!(lag);
+        }
+        let case = CaseSpec::from_value(set(shear(), "/numerics/dt", dt)).unwrap();
+        let on = case.numerics.dt.adaptive().unwrap().coupling_lag;
+        (on, serde_json::to_value(&case).unwrap())
+    };
+    let (off, plain) = canonical(None);
+    assert!(!off && plain["numerics"]["dt"].get("coupling_lag").is_none());
+    assert_eq!(canonical(Some(false)), (false, plain.clone()));
+    let (on, with) = canonical(Some(true));
+    assert!(on && with["numerics"]["dt"]["coupling_lag"] == json!(true) && with != plain);
 }
 
 #[test]

@@ -181,7 +181,12 @@ impl Simulation {
                 StepOutcome::Stepped(report) => report,
                 ended => return Ok(ended),
             };
-            let error = control.error_of(report.deviation);
+            let lag = if control.estimates_lag() {
+                self.stepper.coupling_lag()?
+            } else {
+                None
+            };
+            let error = control.error_of(report.deviation, lag);
             let limit = motion_limit(&self.stepper, dt);
             match control.judge(dt, error, limit) {
                 Verdict::Accept => return Ok(StepOutcome::Stepped(report)),

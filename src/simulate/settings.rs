@@ -273,10 +273,14 @@ impl Settings {
                     TimeStep::Fixed(dt) => Some(step_count(n.t_end, dt)),
                     TimeStep::Adaptive(_) => None,
                 },
-                controller: n
-                    .dt
-                    .adaptive()
-                    .map(|_| super::adaptive::DESCRIPTION.to_string()),
+                controller: n.dt.adaptive().map(|a| {
+                    let lag = a.coupling_lag && polymer && params.coupling == Coupling::Explicit;
+                    let mut text = super::adaptive::DESCRIPTION.to_string();
+                    if !lag {
+                        text += " (no coupling-lag term: coupling_lag = false, or no explicit coupling)";
+                    }
+                    text
+                }),
                 scheme: if polymer {
                     "BDF2 (Euler first step; variable-step coefficients with an adaptive Δt), \
                      predictor-corrector particles"

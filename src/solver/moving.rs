@@ -477,6 +477,23 @@ impl<D: Confinement + Clone + 'static> MovingParticles<D> {
         Ok(MovingEnd::EndTime)
     }
 
+    /// The explicit coupling's lag of the step just taken
+    /// ([`ViscoelasticFlow::coupling_lag`]): the largest change of a particle's velocity when
+    /// the step's flow is solved again with the stress at its end, |ΔU|/a and |Δω| (radii per
+    /// unit time, like [`crate::particles::Deviation::velocity`]); `None` without a lag
+    /// (Newtonian, semi-implicit).
+    ///
+    /// # Errors
+    /// [`MovingError`] if the solve fails.
+    pub fn coupling_lag(&mut self) -> Result<Option<f64>, MovingError> {
+        let Some(lag) = self.flow.coupling_lag(&|_| [0.0, 0.0])? else {
+            return Ok(None);
+        };
+        Ok(Some(lag.iter().zip(&self.radius).fold(0.0, |m, (d, a)| {
+            m.max(d[0].hypot(d[1]) / a).max(d[2].abs())
+        })))
+    }
+
     /// The state after the last step, from which [`restore`](Self::restore) continues the run.
     pub fn checkpoint(&self) -> MovingCheckpoint {
         MovingCheckpoint {

@@ -18,6 +18,7 @@
 //! mesh in `history`; the saved state and its restore in `state`; particle forces and stress
 //! read-outs in `forces`; flow-rate control in `flow_rate`; what a step reports in `report`.
 
+mod coupling_lag;
 mod flow_rate;
 mod forces;
 mod history;
