@@ -34,9 +34,9 @@ pub struct AdaptiveStep {
     pub tol: f64,
     /// Whether the explicit stress coupling's lag is part of a step's error (default `false`,
     /// not in the case id then): the particles' velocities solved again with the stress at the
-    /// end of the step, against those the step used (`simulate::adaptive`). For strings at
-    /// β ≳ 0.3, whose gaps depend on the steps of the stress build-up; at β = 0.1 it costs
-    /// several times the steps for a change below 1 % (docs/validation.md).
+    /// end of the step, against those the step used (`simulate::adaptive`). For transients at
+    /// β ≳ 0.3, which depend on the steps of the stress build-up (terminal steady states did
+    /// not, docs/validation.md); at β = 0.1 it costs several times the steps for < 1 %.
     #[serde(default, skip_serializing_if = "is_false")]
     pub coupling_lag: bool,
 }
