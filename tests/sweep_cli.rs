@@ -414,4 +414,12 @@ fn export_ships_the_finished_cases_thinned() {
         ExitCode::from(2)
     );
     assert!(!dir.join("x.db").exists() && !dir.join("y.db").exists());
+    // a rerun of the sweep with a file that expands to other cases unlinks the finished ones;
+    // the export still ships them (their results are the sweep's)
+    std::fs::write(&file, GOOD.replace("fluid.wi = [1, 2]", "fluid.wi = [4]")).unwrap();
+    run_sweep_with(&args(&file, &db), &runner, &mut Vec::new()).unwrap();
+    let after = dir.join("after.db");
+    let (code, text) = export(&after, vec![], true, 5);
+    assert_eq!(code, ExitCode::SUCCESS, "{text}");
+    assert!(text.contains("exported 4 cases of 1 sweep"), "{text}");
 }

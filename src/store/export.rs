@@ -2,7 +2,9 @@
 //! (`data/thesis/`, docs/reproduction.md).
 //!
 //! The copy holds the finished cases (`done` and `failed`) of the chosen sweeps — every sweep by
-//! default — with their rows as they are: case parameters, settings, status and timings,
+//! default; a sweep's cases are those its file expands to now and those it registered under an
+//! earlier version of the file (a rerun with other cases unlinks them, their results stay) — with
+//! their rows as they are: case parameters, settings, status and timings,
 //! outcomes and final states in full, sweep membership, the sweeps and the runs that made them.
 //! Trajectories are copied whole, or **thinned** to at most `max_samples` sampled steps per case,
 //! evenly spread in time, the first and the last always kept (what a figure draws; the outcome
@@ -161,9 +163,14 @@ fn write_copy(
     let list = |ids: &BTreeSet<i64>| ids.iter().map(i64::to_string).collect::<Vec<_>>().join(",");
     let chosen: BTreeSet<i64> = sweeps.iter().copied().collect();
     let sweep_list = list(&chosen);
+    // the sweeps' cases: those their files expand to now (linked) and those they registered and
+    // ran under an earlier version of the file (unlinked by a rerun, results kept)
     let linked: BTreeSet<i64> = ids(
         src,
-        &format!("SELECT DISTINCT case_id FROM sweep_cases WHERE sweep_id IN ({sweep_list})"),
+        &format!(
+            "SELECT case_id FROM sweep_cases WHERE sweep_id IN ({sweep_list})
+             UNION SELECT id FROM cases WHERE sweep_id IN ({sweep_list})"
+        ),
     )
     .map_err(&serr)?;
     let cases: BTreeSet<i64> = ids(
