@@ -8,6 +8,28 @@ use xpflow::solver::rigid::Motion;
 use xpflow::solver::viscoelastic::ViscoelasticParams;
 use xpflow::xfem::CutOptions;
 
+/// Two particles at (∓0.25, ±0.06) in a confined shear channel H = 1, L = 2 (γ̇ = 1), and its
+/// uniform 40×20 mesh (h = a/2).
+fn shear_pair() -> (
+    xpflow::geometry::ConfinedShear,
+    Vec<[f64; 2]>,
+    xpflow::mesh::Mesh,
+) {
+    use xpflow::mesh::{Axis, Mesh};
+    let domain = xpflow::geometry::ConfinedShear {
+        h: 1.0,
+        l: 2.0,
+        wall_speed: 1.0,
+        drift: 0.0,
+    };
+    let mesh = Mesh::rectangle(
+        Axis::uniform(-1.0, 1.0, 40),
+        Axis::uniform(-0.5, 0.5, 20),
+        true,
+    );
+    (domain, vec![[-0.25, 0.06], [0.25, -0.06]], mesh)
+}
+
 /// R1 = 1, R2 = 4 (thesis §3.5.1), ω̄ = 1: γ̇ = 1/3.
 fn couette() -> CouetteGeometry {
     CouetteGeometry::new(1.0, 4.0, 1.0).expect("valid radii")
@@ -102,21 +124,14 @@ fn couette_particle_at_vanishing_wi_follows_the_stokes_run() {
 /// unmapped sⁿ all in play.
 #[test]
 fn a_restored_run_continues_the_saved_one() {
-    use xpflow::geometry::ConfinedShear;
     use xpflow::mesh::follow::Follow;
-    use xpflow::mesh::{Axis, Mesh};
+    use xpflow::mesh::Axis;
     use xpflow::solver::moving::{ComputationalMesh, FollowingMesh, MovingCheckpoint};
     // The restored flow pattern is built around the current positions rather than where the
     // saved run last rebuilt it, which may reorder the factorization: round-off only.
     const RESTORE_TOL: f64 = 1e-10;
     let (dt, steps) = (0.02, 8);
-    let domain = ConfinedShear {
-        h: 1.0,
-        l: 2.0,
-        wall_speed: 1.0,
-        drift: 0.0,
-    };
-    let x0 = vec![[-0.25, 0.06], [0.25, -0.06]];
+    let (domain, x0, _) = shear_pair();
     // the fixed mesh with both couplings, and a mesh that follows the particles (the ALE
     // displacement of the last step then lives on another mesh than the fields)
     let follow = Follow {
@@ -130,11 +145,7 @@ fn a_restored_run_continues_the_saved_one() {
         (Coupling::Explicit, true),
     ] {
         let setup = || {
-            let mesh = Mesh::rectangle(
-                Axis::uniform(-1.0, 1.0, 40),
-                Axis::uniform(-0.5, 0.5, 20),
-                true,
-            );
+            let mesh = shear_pair().2;
             let mut params = ViscoelasticParams::new(0.1, 0.9, 1.0, 0.01, dt, 1.0);
             params.coupling = coupling;
             let mesh: ComputationalMesh = if follows {
@@ -222,21 +233,9 @@ fn a_restored_run_continues_the_saved_one() {
 /// it leaves the run as it was.
 #[test]
 fn the_coupling_lag_is_first_order_in_the_step_and_leaves_the_run_alone() {
-    use xpflow::geometry::ConfinedShear;
-    use xpflow::mesh::{Axis, Mesh};
-    let domain = ConfinedShear {
-        h: 1.0,
-        l: 2.0,
-        wall_speed: 1.0,
-        drift: 0.0,
-    };
-    let x0 = vec![[-0.25, 0.06], [0.25, -0.06]];
+    let (domain, x0, _) = shear_pair();
     let setup = |dt: f64, coupling: Coupling| {
-        let mesh = Mesh::rectangle(
-            Axis::uniform(-1.0, 1.0, 40),
-            Axis::uniform(-0.5, 0.5, 20),
-            true,
-        );
+        let mesh = shear_pair().2;
         let mut params = ViscoelasticParams::new(0.5, 0.5, 1.0, 0.01, dt, 1.0);
         params.coupling = coupling;
         MovingParticles::free(mesh, params, domain, x0.clone(), 0.1, CutOptions::default()).unwrap()

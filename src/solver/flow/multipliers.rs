@@ -172,20 +172,4 @@ impl Stokes {
         }
         out
     }
-
-    /// The multipliers at the ring nodes of particle `i` (λ_x, λ_y: the traction on the particle
-    /// at angles 2πj/N from the x axis), empty with the weak condition.
-    pub fn ring_multipliers(&self, i: usize) -> Vec<[f64; 2]> {
-        let lay = self.layout;
-        self.rings.get(i).map_or_else(Vec::new, |ring| {
-            (ring.first..ring.first + ring.nodes)
-                .map(|k| {
-                    [
-                        self.sol[lay.multiplier(k, 0)],
-                        self.sol[lay.multiplier(k, 1)],
-                    ]
-                })
-                .collect()
-        })
-    }
 }

@@ -6,8 +6,7 @@
 //! step controller does not see (docs/validation.md, "Which setting").
 
 use super::{ViscoelasticError, ViscoelasticFlow};
-use crate::solver::constitutive_stress::{Coupling, CouplingStress};
-use crate::solver::polymer_terms::PolymerStress;
+use crate::solver::constitutive_stress::Coupling;
 
 impl ViscoelasticFlow {
     /// After a step ([`solve_stress`](Self::solve_stress)): the rigid velocities (U_x, U_y, ω)
@@ -28,23 +27,7 @@ impl ViscoelasticFlow {
         {
             return Ok(None);
         }
-        let stress = CouplingStress {
-            mesh: &self.mesh,
-            model: self.fluid.polymer(),
-            conformation: &self.conformation,
-            coupling: self.params.coupling,
-            dt: self.params.dt,
-            bdf: self.history.bdf2(self.params.dt),
-            mesh_velocity: self.mesh_velocity.as_deref(),
-            devss: (!self.params.coupled_g && self.params.theta > 0.0)
-                .then_some((self.params.theta, self.gradient.as_slice())),
-            previous: self.conformation_prev.as_deref(),
-        };
-        let step = self.history.steps();
-        let sol = self
-            .stokes
-            .solve_with(force, Some(&stress as &dyn PolymerStress))
-            .map_err(|source| ViscoelasticError::Flow { step, source })?;
+        let sol = self.solve_stokes(force, self.history.steps())?;
         Ok(Some(
             sol.rigid
                 .iter()

@@ -43,7 +43,7 @@ use crate::solver::constitutive::{
 };
 use crate::solver::constitutive_projection::Q1Projection;
 use crate::solver::constitutive_stress::{Coupling, CouplingStress};
-use crate::solver::flow::{Stokes, StokesParams};
+use crate::solver::flow::{Stokes, StokesParams, StokesSolution};
 use crate::solver::polymer_terms::PolymerStress;
 use crate::solver::rigid::{ElementCut, Particle, WeakForm};
 
@@ -275,6 +275,28 @@ impl ViscoelasticFlow {
         }
         let started = Instant::now();
         let step = self.history.steps() + 1;
+        let mut sol = self.solve_stokes(force, step)?;
+        self.body_force = self.control_flow_rate(&mut sol);
+        self.reaction = std::mem::take(&mut sol.reaction);
+        self.traction = std::mem::take(&mut sol.stress_force);
+        self.rigid = std::mem::take(&mut sol.rigid);
+        Ok(FlowSolution {
+            step,
+            u: sol.u,
+            p: sol.p,
+            g: sol.g,
+            started,
+        })
+    }
+
+    /// The flow system with the polymer stress of the current fields (the conformation, G and
+    /// the history levels the coupling reads; none without polymer), solved; `step` names a
+    /// failure.
+    fn solve_stokes(
+        &mut self,
+        force: &dyn Fn([f64; 2]) -> [f64; 2],
+        step: usize,
+    ) -> Result<StokesSolution, ViscoelasticError> {
         let stress = CouplingStress {
             mesh: &self.mesh,
             model: self.fluid.polymer(),
@@ -292,21 +314,9 @@ impl ViscoelasticFlow {
         } else {
             None
         };
-        let mut sol = self
-            .stokes
+        self.stokes
             .solve_with(force, stress)
-            .map_err(|source| ViscoelasticError::Flow { step, source })?;
-        self.body_force = self.control_flow_rate(&mut sol);
-        self.reaction = std::mem::take(&mut sol.reaction);
-        self.traction = std::mem::take(&mut sol.stress_force);
-        self.rigid = std::mem::take(&mut sol.rigid);
-        Ok(FlowSolution {
-            step,
-            u: sol.u,
-            p: sol.p,
-            g: sol.g,
-            started,
-        })
+            .map_err(|source| ViscoelasticError::Flow { step, source })
     }
 
     /// Steps 2–5, solve_stress: G^{n+1} (decoupled DEVSS-G), s^{n+1} by SUPG/BDF2, c^{n+1} = Π exp(s),
