@@ -30,13 +30,21 @@ pub(super) fn nearest_image(x: [f64; 2], near: [f64; 2], period: Option<f64>) ->
     }
 }
 
+/// How far the pre-image may lie from `x`, relative to the smallest side of `x`'s element, for
+/// the search to start in that element without locating x − d(x) first: the pre-image is then in
+/// the element or one of its neighbours, which the search tries next.
+const NEAR_SHIFT: f64 = 0.25;
+
 /// Locates `x` in the mesh displaced by `d` and returns (element, ξ, X_E(ξ)) with the pre-image
-/// X_E(ξ) as the periodic image nearest to `x`.
+/// X_E(ξ) as the periodic image nearest to `x`. `at` is where `x` lies in the undisplaced mesh
+/// (element and ξ), if the caller knows it (a node of the mesh, a pre-image found before): it
+/// spares locating `x` (a Newton iteration on a curved mesh).
 pub(super) fn pre_image(
     mesh: &Mesh,
     d: &[[f64; 2]],
     x: [f64; 2],
     period: Option<f64>,
+    at: Option<(usize, [f64; 2])>,
 ) -> Result<(usize, [f64; 2], [f64; 2]), AleError> {
     let not_found = || AleError::NotFound { x: x[0], y: x[1] };
     // pre-images of wall points may leave the domain by round-off: start from the wall
@@ -62,7 +70,10 @@ pub(super) fn pre_image(
             }
         })
     };
-    let (e0, xi0) = locate(x).ok_or_else(not_found)?;
+    let (e0, xi0) = match at {
+        Some(at) => at,
+        None => locate(x).ok_or_else(not_found)?,
+    };
     // The pre-image X solves X + d(X) = x. Where d varies slowly (everywhere but across a few
     // elements next to a rigid patch) X ≈ x − d(x): search around that first, then around x.
     // A displacement of more than an element per step (a particle at speed U with UΔt > h, and
@@ -74,7 +85,13 @@ pub(super) fn pre_image(
             [a[0] + n[m] * dv[m][0], a[1] + n[m] * dv[m][1]]
         })
     };
-    let guess = locate([x[0] - dx[0], x[1] - dx[1]]);
+    let (lo, hi) = bounding_box(&mesh.element_coords[e0]);
+    let near = dx[0].hypot(dx[1]) <= NEAR_SHIFT * (hi[0] - lo[0]).min(hi[1] - lo[1]);
+    let guess = if near {
+        None
+    } else {
+        locate([x[0] - dx[0], x[1] - dx[1]])
+    };
     let (nx, ny) = mesh.dims();
     let mut best: Option<(f64, usize, [f64; 2])> = None;
     let mut tried = Vec::with_capacity(18);

@@ -115,6 +115,15 @@ pub struct TemporaryAle {
     previous_axes: Option<(Axis, Axis)>,
     /// Interpolation of the history at the pre-images.
     pub remap: Remap,
+    /// Where each node of the mesh lies in it, kept while the mesh stays.
+    homes: Option<NodeHomes>,
+}
+
+/// Where each node of the mesh with these axes lies in it ([`Mesh::locate`]: element and ξ): the
+/// pre-image search of a node starts there instead of locating the node again every step.
+struct NodeHomes {
+    axes: (Axis, Axis),
+    at: Vec<Option<(usize, [f64; 2])>>,
 }
 
 impl std::fmt::Debug for TemporaryAle {
@@ -152,6 +161,7 @@ impl TemporaryAle {
             previous: None,
             previous_axes: None,
             remap: Remap::default(),
+            homes: None,
         }
     }
 
@@ -249,6 +259,16 @@ impl TemporaryAle {
             .map(|(ax, ay)| old.with_axes(ax, ay));
         let older = moved.as_ref().unwrap_or(old);
         let nn = new.n_nodes();
+        // the nodes of `new` located in `old` (once per mesh: the same when they are one)
+        let same = old.ax == new.ax && old.ay == new.ay;
+        let stale = |h: &NodeHomes| h.axes.0 != old.ax || h.axes.1 != old.ay;
+        if same && self.homes.as_ref().is_none_or(stale) {
+            self.homes = Some(NodeHomes {
+                axes: (old.ax.clone(), old.ay.clone()),
+                at: old.nodes.iter().map(|&x| old.locate(x)).collect(),
+            });
+        }
+        let homes = self.homes.as_ref().filter(|_| same).map(|h| &h.at);
         let mut at_n = vec![([0; STENCIL_LEN], [0.0; STENCIL_LEN]); new.n_vertices()];
         let mut at_nm1 = d_old
             .as_ref()
@@ -256,7 +276,7 @@ impl TemporaryAle {
         let mut mesh_velocity = vec![[0.0; 2]; nn];
         for k in 0..nn {
             let x = new.nodes[k];
-            let (e1, xi1, xn) = pre_image(old, &d_new, x, period)?;
+            let (e1, xi1, xn) = pre_image(old, &d_new, x, period, homes.and_then(|h| h[k]))?;
             let v = new.vertex_of_node[k];
             if let Some(v) = v {
                 at_n[v] = stencil(old, e1, xi1, self.remap);
@@ -264,7 +284,9 @@ impl TemporaryAle {
             let u = match &d_old {
                 None => [(x[0] - xn[0]) / dt, (x[1] - xn[1]) / dt],
                 Some(d_old) => {
-                    let (e2, xi2, xnm1) = pre_image(older, d_old, xn, period)?;
+                    // xⁿ = X_{e1}(ξ1) on `old`, which is `older` unless the mesh moved
+                    let at = moved.is_none().then_some((e1, xi1));
+                    let (e2, xi2, xnm1) = pre_image(older, d_old, xn, period, at)?;
                     if let (Some(v), Some(at)) = (v, at_nm1.as_mut()) {
                         at[v] = stencil(older, e2, xi2, self.remap);
                     }

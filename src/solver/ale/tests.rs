@@ -142,7 +142,12 @@ fn pre_images_invert_the_ale_mesh_and_bilinear_fields_map_exactly() {
         .collect();
     for (v, &k) in mesh.node_of_vertex.iter().enumerate() {
         let x = mesh.nodes[k];
-        let (e, xi, xn) = pre_image(&mesh, d, x, Some(2.0)).unwrap();
+        let (e, xi, xn) = pre_image(&mesh, d, x, Some(2.0), None).unwrap();
+        // the search started from x's known location finds the same pre-image
+        let hinted = pre_image(&mesh, d, x, Some(2.0), mesh.locate(x)).unwrap();
+        assert!(
+            (hinted.2[0] - xn[0]).abs() < LOCATE_TOL && (hinted.2[1] - xn[1]).abs() < LOCATE_TOL
+        );
         // x = xⁿ + d(xⁿ)
         let back = displaced(&mesh, d, e, xi, xn);
         assert!((back[0] - x[0]).abs() < LOCATE_TOL, "{x:?} {xn:?}");
@@ -173,7 +178,7 @@ fn pre_images_beyond_the_neighbouring_elements_are_found() {
     let d = &m.displacement;
     for &k in &mesh.node_of_vertex {
         let x = mesh.nodes[k];
-        let (e, xi, xn) = pre_image(&mesh, d, x, Some(2.0)).unwrap();
+        let (e, xi, xn) = pre_image(&mesh, d, x, Some(2.0), None).unwrap();
         let back = nearest_image(displaced(&mesh, d, e, xi, xn), x, Some(2.0));
         assert!((back[0] - x[0]).abs() < LOCATE_TOL, "{x:?} {xn:?}");
         assert!((back[1] - x[1]).abs() < LOCATE_TOL);
@@ -215,7 +220,7 @@ fn assert_remap_exact_on(mesh: Mesh, remap: Remap, f: &impl Fn([f64; 2]) -> f64)
         if x[0].abs() > 0.7 {
             continue;
         }
-        let (_, _, xn) = pre_image(&mesh, &m.displacement, x, Some(2.0)).unwrap();
+        let (_, _, xn) = pre_image(&mesh, &m.displacement, x, Some(2.0), None).unwrap();
         let (vs, w) = m.at_n[v];
         let g: f64 = (0..STENCIL_LEN).map(|a| fv[vs[a]] * w[a]).sum();
         assert!(
@@ -335,7 +340,7 @@ fn pre_images_of_a_moved_mesh_are_interpolated_on_the_meshes_of_the_history() {
         if x[0].abs() > 0.7 {
             continue; // the field is not periodic
         }
-        let (_, _, xn) = pre_image(&m0, &a.displacement, x, period).unwrap();
+        let (_, _, xn) = pre_image(&m0, &a.displacement, x, period, None).unwrap();
         check(&a.at_n, &m0, v, xn);
         checked += 1;
     }
@@ -351,7 +356,7 @@ fn pre_images_of_a_moved_mesh_are_interpolated_on_the_meshes_of_the_history() {
         if x[0].abs() > 0.7 {
             continue;
         }
-        let (_, _, xn) = pre_image(&m1, &b.displacement, x, period).unwrap();
+        let (_, _, xn) = pre_image(&m1, &b.displacement, x, period, None).unwrap();
         check(&b.at_n, &m1, v, xn);
         // x^{n−1} from the BDF2 mesh velocity: u = (1.5 x − 2 xⁿ + 0.5 x^{n−1})/Δt
         let u = b.mesh_velocity[k];
@@ -387,7 +392,7 @@ fn cubic_remap_keeps_its_order_on_a_graded_axis() {
             .collect();
         let mut err: f64 = 0.0;
         for &n in &mesh.node_of_vertex {
-            let (e, xi, xn) = pre_image(&mesh, &d, mesh.nodes[n], Some(l)).unwrap();
+            let (e, xi, xn) = pre_image(&mesh, &d, mesh.nodes[n], Some(l), None).unwrap();
             let (v, w) = stencil(&mesh, e, xi, Remap::Cubic);
             let g: f64 = (0..STENCIL_LEN).map(|a| fv[v[a]] * w[a]).sum();
             err = err.max((g - f(xn[0])).abs());
@@ -425,7 +430,7 @@ fn repeated_remaps_accumulate_the_interpolation_error_of_their_order() {
             .node_of_vertex
             .iter()
             .map(|&n| {
-                let (e, xi, _) = pre_image(&mesh, &d, mesh.nodes[n], Some(l)).unwrap();
+                let (e, xi, _) = pre_image(&mesh, &d, mesh.nodes[n], Some(l), None).unwrap();
                 stencil(&mesh, e, xi, remap)
             })
             .collect();
