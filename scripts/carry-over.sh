@@ -41,17 +41,26 @@ save)
 	tmp=$(mktemp -d)
 	trap 'rm -rf "$tmp"' EXIT
 	# the finished cases as the shipped dataset
-	"$bin" export --db "$db" --out "$tmp/$name.db" --thin
-	mv "$tmp/$name.db" "$data/$name.db"
+	"$bin" export --db "$db" --out "$tmp/$name.db" --thin | tee "$tmp/export.log"
+	if grep -q '^exported 0 cases' "$tmp/export.log"; then
+		echo "no finished case yet: $data/$name.db left as it was"
+	else
+		mv "$tmp/$name.db" "$data/$name.db"
+	fi
 	# the whole database (one consistent copy) and the saved states of the unfinished cases
 	mkdir -p "$tmp/pack/$name" "$data/inflight"
 	python3 -c 'import sqlite3, sys; sqlite3.connect("file:" + sys.argv[1] + "?mode=ro", uri=True).execute("VACUUM INTO ?", (sys.argv[2],))' \
 		"$db" "$tmp/pack/$name.db"
+	# in the copy, the killed sweep's cases are interrupted (pending, no owner), as a sweep resets
+	# them when their process is gone: the next machine may have another host name, and a case
+	# claimed on another host counts as running there
+	python3 -c 'import sqlite3, sys; c = sqlite3.connect(sys.argv[1]); c.execute("UPDATE cases SET status = '"'"'pending'"'"', owner = NULL, owner_pid = NULL WHERE status = '"'"'running'"'"'"); c.commit()' \
+		"$tmp/pack/$name.db"
 	if [ -d "$states" ]; then
 		find "$states" -maxdepth 1 -name '*.resume.json' -exec cp {} "$tmp/pack/$name/" \;
 	fi
 	tar -C "$tmp/pack" -cJf "$pack" "$name.db" "$name"
-	echo "saved: $data/$name.db (finished cases), $pack ($(du -h "$pack" | cut -f1);" \
+	echo "saved: $pack ($(du -h "$pack" | cut -f1);" \
 		"$(find "$tmp/pack/$name" -name '*.resume.json' | wc -l) cases in flight)"
 	;;
 restore)
