@@ -137,7 +137,8 @@ fn hostile_sweep_files_exit_2_naming_the_field() {
     }
 }
 
-/// Expansion time of a `n`×`n` grid (best of two).
+/// Expansion time of a `n`×`n` grid: the best of five, so that a run slowed by the shared machine
+/// (the test was flaky with the best of two) does not decide the ratio.
 fn expansion_time(n: usize) -> Duration {
     let text = GOOD.replace(
         "fluid.wi = [1, 2]",
@@ -147,7 +148,7 @@ fn expansion_time(n: usize) -> Duration {
         ),
     );
     let spec = SweepSpec::from_str(&text, false, Path::new("grid.toml")).unwrap();
-    (0..2)
+    (0..5)
         .map(|_| {
             let t = Instant::now();
             assert_eq!(expand(&spec).unwrap().len(), n * n);

@@ -64,7 +64,7 @@ fn example_sweeps_pass_dry_run() {
 #[test]
 fn invalid_sweeps_exit_2_and_write_nothing() {
     let dir = scratch("invalid");
-    let bad: [(&str, String, &str); 15] = [
+    let bad: [(&str, String, &str); 16] = [
         (
             "malformed",
             GOOD.replace("name = \"cli\"", "name = = 1"),
@@ -125,6 +125,14 @@ fn invalid_sweeps_exit_2_and_write_nothing() {
             "explicit coupling without solvent",
             GOOD.replace("beta = 0.1", "beta = 0.0")
                 .replace("dt = 0.01", "dt = 0.01, coupling = \"explicit\""),
+            "numerics.coupling",
+        ),
+        (
+            "extrapolated explicit coupling without solvent",
+            GOOD.replace("beta = 0.1", "beta = 0.0").replace(
+                "dt = 0.01",
+                "dt = 0.01, coupling = \"explicit_extrapolated\"",
+            ),
             "numerics.coupling",
         ),
         (

@@ -322,6 +322,10 @@ pub enum StressCoupling {
     Explicit,
     /// τ(cⁿ) explicit, G solved with the flow (coupled DEVSS-G): second order, a larger flow system.
     ExplicitCoupledG,
+    /// τ extrapolated from the last two steps, τ(cⁿ + r(cⁿ − c^{n−1})), and G solved with the
+    /// flow: no lagged term (the particles' velocities see the stress at t^{n+1} to O(Δt²)); the
+    /// cost of `explicit_coupled_g`; β > 0 only.
+    ExplicitExtrapolated,
     /// D'Avino & Hulsen's semi-implicit stress (thesis Eqs. 5.26–5.29, 5.51), as in the thesis'
     /// Ch. 5: second order, works at β = 0, non-symmetric flow matrix (LU, ~10× slower).
     SemiImplicit,

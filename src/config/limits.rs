@@ -70,7 +70,9 @@ impl CaseSpec {
                 StressCoupling::SemiImplicit => {
                     SEMI_IMPLICIT_BYTES * e.powf(SEMI_IMPLICIT_EXPONENT)
                 }
-                StressCoupling::ExplicitCoupledG => COUPLED_G_BYTES_PER_ELEMENT * e,
+                StressCoupling::ExplicitCoupledG | StressCoupling::ExplicitExtrapolated => {
+                    COUPLED_G_BYTES_PER_ELEMENT * e
+                }
                 _ => EXPLICIT_BYTES_PER_ELEMENT * e,
             }
     }
@@ -101,7 +103,9 @@ impl CaseSpec {
         }
         match self.resolved_coupling() {
             StressCoupling::SemiImplicit => SEMI_IMPLICIT_STEP_COST,
-            StressCoupling::ExplicitCoupledG => COUPLED_G_STEP_COST,
+            StressCoupling::ExplicitCoupledG | StressCoupling::ExplicitExtrapolated => {
+                COUPLED_G_STEP_COST
+            }
             _ => 1.0,
         }
     }

@@ -422,6 +422,9 @@ fn a_mesh_is_two_counts_of_bounded_size() {
         "{}",
         at("semi_implicit")
     );
+    // the extrapolated stress solves G with the flow: the coupled-G system's memory
+    assert_eq!(at("explicit_extrapolated"), at("explicit_coupled_g"));
+    assert!(at("explicit_coupled_g") > at("explicit"));
 }
 
 /// An adaptive step (issue 27) is a table of four positive numbers with min ≤ initial ≤ max,

@@ -262,7 +262,9 @@ impl CaseSpec {
         }
         let explicit = matches!(
             n.coupling,
-            StressCoupling::Explicit | StressCoupling::ExplicitCoupledG
+            StressCoupling::Explicit
+                | StressCoupling::ExplicitCoupledG
+                | StressCoupling::ExplicitExtrapolated
         );
         if explicit && self.fluid.beta == 0.0 && self.fluid.wi > 0.0 {
             return Err(SpecError::new(

@@ -218,6 +218,11 @@ pub fn fluid_params(case: &CaseSpec) -> ViscoelasticParams {
             params.coupling = Coupling::Explicit;
             params.coupled_g = true;
         }
+        StressCoupling::ExplicitExtrapolated => {
+            params.coupling = Coupling::Explicit;
+            params.coupled_g = true;
+            params.extrapolate_stress = true;
+        }
         StressCoupling::SemiImplicit => params.coupling = Coupling::SemiImplicit,
     }
     params
@@ -239,6 +244,9 @@ impl Settings {
         let coupling = match (polymer, params.coupling, params.coupled_g) {
             (false, _, _) => "none (Stokes flow)",
             (true, Coupling::Explicit, false) => "explicit (lagged G)",
+            (true, Coupling::Explicit, true) if params.extrapolate_stress => {
+                "explicit (extrapolated stress, coupled G)"
+            }
             (true, Coupling::Explicit, true) => "explicit (coupled G)",
             (true, Coupling::SemiImplicit, _) => "semi_implicit",
         };

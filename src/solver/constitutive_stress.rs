@@ -22,7 +22,10 @@
 //! t^{n+1}, make it first order in time (translating cylinder held at rest, η_s = 0.1,
 //! docs/validation.md). Extrapolating them, `τ(2cⁿ − c^{n−1})` and `θ(2Gⁿ − G^{n−1})`, halved
 //! the error there but made the explicit coupling unstable without solvent (the β = 0 shear
-//! tests diverged), so the explicit path stays lagged; the semi-implicit one is second order.
+//! tests diverged), so the default explicit path stays lagged; the semi-implicit one is second
+//! order. With `extrapolate` (and `previous`) the explicit stress is `τ(ĉ)` at the BDF2
+//! predictor's ĉ = cⁿ + r(cⁿ − c^{n−1}) (`numerics.coupling = "explicit_extrapolated"`, with G
+//! solved with the flow; β > 0 only).
 
 use crate::mesh::Mesh;
 use crate::rheology::{Giesekus, SemiImplicitStress, Sym2};
@@ -58,19 +61,30 @@ pub struct CouplingStress<'a> {
     pub mesh_velocity: Option<&'a [[f64; 2]]>,
     /// Decoupled DEVSS-G: `θ` and the lagged `Gⁿ` at the Q1 vertices.
     pub devss: Option<(f64, &'a [[f64; 4]])>,
-    /// Projected `c^{n−1}` on the current configuration (semi-implicit only): the BDF2
-    /// predictor instead of Eq. 5.51's Euler step.
+    /// Projected `c^{n−1}` on the current configuration: the semi-implicit BDF2 predictor
+    /// instead of Eq. 5.51's Euler step, or the explicit stress's extrapolation.
     pub previous: Option<&'a [Sym2]>,
+    /// Explicit coupling: the stress at the extrapolated ĉ (with `previous`) instead of cⁿ.
+    pub extrapolate: bool,
 }
 
 impl PolymerStress for CouplingStress<'_> {
     fn at(&self, e: usize, xi: [f64; 2], _x: [f64; 2], on_boundary: bool) -> StressLin {
         let c = sym_at(self.mesh, self.conformation, e, xi);
         let mut lin = match self.coupling {
-            Coupling::Explicit => StressLin {
-                b: self.model.stress(c).to_rows(),
-                ..Default::default()
-            },
+            Coupling::Explicit => {
+                let c = match self.previous {
+                    Some(prev) if self.extrapolate => {
+                        let (w1, w0) = self.bdf.extrapolation();
+                        w1 * c + w0 * sym_at(self.mesh, prev, e, xi)
+                    }
+                    _ => c,
+                };
+                StressLin {
+                    b: self.model.stress(c).to_rows(),
+                    ..Default::default()
+                }
+            }
             Coupling::SemiImplicit => {
                 let dc = sym_gradient_at(self.mesh, self.conformation, e, xi);
                 let (si, dc, mut b) = match self.previous {
@@ -169,6 +183,7 @@ mod tests {
             mesh_velocity: None,
             devss: Some((0.5, &g)),
             previous: None,
+            extrapolate: false,
         };
         let (e, xi) = (0, [0.0, 0.0]);
         let x = crate::fem::element::q2_map(&mesh.element_coords[e], xi).0;
@@ -234,6 +249,30 @@ mod tests {
             for j in 0..2 {
                 let t = affine(&lin, i, j);
                 assert!((t - direct.get(i, j)).abs() < ROUND_OFF, "BDF2 {i}{j}: {t}");
+            }
+        }
+        // explicit, extrapolated: τ(cⁿ + r(cⁿ − c^{n−1})) for a step ratio r = 1.5; without
+        // `extrapolate` the lagged τ(cⁿ), and without c^{n−1} (the first step) as well
+        st.coupling = Coupling::Explicit;
+        st.bdf = Bdf2::with_ratio(1.5);
+        let lagged = model.stress(cx).to_rows();
+        let extrapolated = model.stress(2.5 * cx - 1.5 * cpx).to_rows();
+        for (extrapolate, previous, want) in [
+            (true, Some(cp.as_slice()), extrapolated),
+            (false, Some(cp.as_slice()), lagged),
+            (true, None, lagged),
+        ] {
+            st.extrapolate = extrapolate;
+            st.previous = previous;
+            let lin = st.at(e, xi, x, false);
+            assert!(!st.is_implicit() && lin.a.is_none() && lin.b_u.is_none());
+            for i in 0..2 {
+                for j in 0..2 {
+                    assert!(
+                        (lin.b[i][j] - want[i][j]).abs() < ROUND_OFF,
+                        "{extrapolate}"
+                    );
+                }
             }
         }
     }

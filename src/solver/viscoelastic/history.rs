@@ -7,7 +7,6 @@ use crate::mesh::Mesh;
 use crate::rheology::Sym2;
 use crate::solver::ale::{extend_inside, StencilWeights, STENCIL_LEN};
 use crate::solver::constitutive::{inactive_vertices, LogConformationHistory};
-use crate::solver::constitutive_stress::Coupling;
 use crate::solver::rigid::{ElementCut, Particle};
 
 /// How the history moves onto the current configuration (temporary ALE map, thesis §5.3.3):
@@ -185,10 +184,10 @@ impl ViscoelasticFlow {
             &self.history.current,
             &mut self.conformation,
         )?;
-        // c^{n−1} serves the semi-implicit predictor only
-        let semi_implicit = self.params.coupling == Coupling::SemiImplicit;
+        // c^{n−1} serves the semi-implicit predictor and the extrapolated explicit stress only
+        let needed = self.params.needs_previous_conformation();
         self.conformation_prev = match &self.history.previous {
-            Some(prev) if semi_implicit => {
+            Some(prev) if needed => {
                 let mut c = self
                     .conformation_prev
                     .take()

@@ -275,7 +275,7 @@ impl ViscoelasticFlow {
         }
         let started = Instant::now();
         let step = self.history.steps() + 1;
-        let mut sol = self.solve_stokes(force, step)?;
+        let mut sol = self.solve_stokes(force, step, self.params.extrapolate_stress)?;
         self.body_force = self.control_flow_rate(&mut sol);
         self.reaction = std::mem::take(&mut sol.reaction);
         self.traction = std::mem::take(&mut sol.stress_force);
@@ -290,12 +290,13 @@ impl ViscoelasticFlow {
     }
 
     /// The flow system with the polymer stress of the current fields (the conformation, G and
-    /// the history levels the coupling reads; none without polymer), solved; `step` names a
-    /// failure.
+    /// the history levels the coupling reads; none without polymer), solved; `extrapolate`: the
+    /// explicit stress at the extrapolated ĉ instead of cⁿ; `step` names a failure.
     fn solve_stokes(
         &mut self,
         force: &dyn Fn([f64; 2]) -> [f64; 2],
         step: usize,
+        extrapolate: bool,
     ) -> Result<StokesSolution, ViscoelasticError> {
         let stress = CouplingStress {
             mesh: &self.mesh,
@@ -308,6 +309,7 @@ impl ViscoelasticFlow {
             devss: (!self.params.coupled_g && self.params.theta > 0.0)
                 .then_some((self.params.theta, self.gradient.as_slice())),
             previous: self.conformation_prev.as_deref(),
+            extrapolate,
         };
         let stress: Option<&dyn PolymerStress> = if self.params.has_polymer() {
             Some(&stress)
@@ -365,9 +367,10 @@ impl ViscoelasticFlow {
             &flow,
             &mut self.history,
         )?;
-        // 4. project_conformation (cⁿ kept as c^{n−1} for the semi-implicit stress predictor)
+        // 4. project_conformation (cⁿ kept as c^{n−1} for the semi-implicit stress predictor or
+        // the extrapolated explicit stress)
         let t1 = Instant::now();
-        if self.params.coupling == Coupling::SemiImplicit {
+        if self.params.needs_previous_conformation() {
             let mut prev = self
                 .conformation_prev
                 .take()

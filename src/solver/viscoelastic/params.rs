@@ -33,6 +33,9 @@ pub struct ViscoelasticParams {
     /// DEVSS-G with G as flow unknowns (true) or decoupled: Gⁿ lagged in the momentum balance,
     /// G^{n+1} by a Q1 projection (false, the fast path).
     pub coupled_g: bool,
+    /// Explicit coupling only: the stress of the flow solve extrapolated from the last two
+    /// steps, τ(cⁿ + r(cⁿ − c^{n−1})) with r = Δtₙ/Δtₙ₋₁, instead of the lagged τ(cⁿ).
+    pub extrapolate_stress: bool,
     /// Steady-state tolerance on the nodal change per step.
     pub steady_tol: f64,
     /// How the rigid-body motion is imposed: the weak condition (default) or Lagrange
@@ -57,6 +60,13 @@ impl ViscoelasticParams {
         Self::new(eta, 0.0, 1.0, 0.0, dt, t_end)
     }
 
+    /// Whether the flow solve reads the projected c^{n−1} (the semi-implicit predictor, the
+    /// extrapolated explicit stress): the stepper keeps it.
+    pub fn needs_previous_conformation(&self) -> bool {
+        self.coupling == Coupling::SemiImplicit
+            || (self.coupling == Coupling::Explicit && self.extrapolate_stress)
+    }
+
     /// Whether the fluid has a polymer (η_p > 0); without one the stepper solves Stokes flow.
     pub fn has_polymer(&self) -> bool {
         self.eta_p > 0.0
@@ -74,6 +84,7 @@ impl ViscoelasticParams {
             coupling: Coupling::Explicit,
             theta: eta_p,
             coupled_g: false,
+            extrapolate_stress: false,
             steady_tol: STEADY_TOL,
             rigid_condition: RigidCondition::Weak,
             rigid_form: WeakForm::Symmetric,
