@@ -34,7 +34,7 @@ pub use search::{Change, SearchSpec};
 pub use sweep_file::{Axis, PlannedCase, SweepSpec};
 pub use text::parse as parse_text;
 pub use time_step::{AdaptiveStep, TimeStep};
-pub use validate::MAX_DT_OVER_LAMBDA;
+pub use validate::{MAX_DT_OVER_LAMBDA, MAX_EXTRAPOLATED_DT_OVER_BETA_LAMBDA};
 
 #[cfg(test)]
 mod tests;

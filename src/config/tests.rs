@@ -127,6 +127,22 @@ fn impossible_physics_is_rejected() {
     let err = CaseSpec::from_value(too_long).expect_err("Δt > λ/2");
     assert_eq!(err.field, "numerics.dt");
     assert!(err.message.contains("λ"), "{}", err.message);
+    // the extrapolated explicit stress: Δt up to 0.2 βλ, beyond it refused naming the field
+    let extrapolated = |dt: f64| {
+        let mut v = set(coarse(), "/numerics/dt", json!(dt));
+        v["numerics"]["coupling"] = json!("explicit_extrapolated");
+        CaseSpec::from_value(v)
+    };
+    let beta = CaseSpec::from_value(shear()).unwrap().fluid.beta;
+    let edge = MAX_EXTRAPOLATED_DT_OVER_BETA_LAMBDA * beta * lambda;
+    assert!(extrapolated(edge).is_ok());
+    let err = extrapolated(1.01 * edge).expect_err("Δt > 0.2 βλ");
+    assert_eq!(err.field, "numerics.dt");
+    assert!(
+        err.message.contains("explicit_coupled_g"),
+        "{}",
+        err.message
+    );
     assert_eq!(
         field_of(set(shear(), "/particles/layout/string/n", json!(0))),
         "particles.layout.string.n"

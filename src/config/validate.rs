@@ -17,6 +17,13 @@ const TOUCH_TOLERANCE: f64 = 1e-9;
 /// Giesekus relaxation rate grows above 1/λ with the stress; half of λ leaves that margin.
 pub const MAX_DT_OVER_LAMBDA: f64 = 0.5;
 
+/// Largest Δt/(βλ) accepted with the extrapolated explicit stress (`explicit_extrapolated`). The
+/// extrapolation makes the explicit coupling unstable where the solvent's share of the viscosity
+/// is small against the step: three particles at Wi = 1 (λ = 1) diverged at β = 0.1 with
+/// Δt = 0.04 and ran at 0.02; β = 0.2 ran at 0.04, β = 0.5 at 0.08 (docs/validation.md, "Why the
+/// lag decides some runs"). 0.2 βλ is the largest step seen stable at each β.
+pub const MAX_EXTRAPOLATED_DT_OVER_BETA_LAMBDA: f64 = 0.2;
+
 /// Largest quadtree level accepted: level 10 already integrates the disc area to 1e-10 (thesis Table 2.2).
 const MAX_QUADTREE_LEVEL: u32 = 12;
 
@@ -69,6 +76,23 @@ impl CaseSpec {
                      relaxation term is explicit in the time scheme and diverges for Δt ≳ λ; \
                      use dt ≤ {:.4}",
                     MAX_DT_OVER_LAMBDA * lambda
+                ),
+            ));
+        }
+        let limit = MAX_EXTRAPOLATED_DT_OVER_BETA_LAMBDA * self.fluid.beta * lambda;
+        if self.numerics.coupling == StressCoupling::ExplicitExtrapolated
+            && lambda > 0.0
+            && lambda.is_finite()
+            && dt > limit
+        {
+            return Err(SpecError::new(
+                field,
+                format!(
+                    "Δt = {dt} is more than {MAX_EXTRAPOLATED_DT_OVER_BETA_LAMBDA} βλ (β = {}, \
+                     λ = {lambda:.4}): the extrapolated explicit stress is unstable at such steps \
+                     with this little solvent; use dt ≤ {limit:.4}, or numerics.coupling = \
+                     \"explicit_coupled_g\"",
+                    self.fluid.beta
                 ),
             ));
         }
