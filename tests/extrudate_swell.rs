@@ -1,8 +1,10 @@
 //! Extrudate swell (thesis §6.4), the Newtonian limit: the free surface immersed in the fixed
-//! mesh, moved by the kinematic equation, reaches the steady test and swells as published.
+//! mesh, moved by the kinematic equation, reaches the steady test and swells as published; the
+//! UCM extrudate with its fully developed inflow stress.
 
 use xpflow::validate::extrudate::{
-    extrapolate, newtonian_swell, NEWTONIAN_SWELL, SWELL_DT, SWELL_TOL, SWELL_T_MAX,
+    extrapolate, newtonian_swell, swell, SwellMesh, NEWTONIAN_SWELL, SWELL_DT, SWELL_TOL,
+    SWELL_T_MAX,
 };
 
 /// The coarse mesh (h = 0.1, 750 elements, seconds): steady, pinned at the die exit, rising
@@ -43,5 +45,35 @@ fn the_extrudate_swell_converges_to_the_published_ratio() {
     assert!(
         (e - NEWTONIAN_SWELL).abs() <= SWELL_TOL,
         "{s:?} → {e} (order {order})"
+    );
+}
+
+/// The UCM extrudate (thesis §6.4) at De = 0.25 on the coarse graded mesh (h = 0.1 at the die exit,
+/// 476 elements, ≈ 10 s): the stress enters fully developed and stays so in the die, the surface
+/// settles, and the swell dips below the Newtonian one on the same mesh as Table 6.3's does
+/// (1.168 against 1.188: −1.68 %; measured −1.62 %). The dip is the elastic effect the mesh
+/// resolves at low De; at higher De the swell converges slowly with h (docs/validation.md).
+#[test]
+fn the_ucm_extrudate_dips_below_the_newtonian_swell_as_published() {
+    // the published dip, and the room this mesh needs (measured 0.06 % off)
+    const PUBLISHED_DIP: f64 = 1.168 / 1.188 - 1.0;
+    const COARSE_DIP_TOL: f64 = 3e-3;
+    // the die's conformation against the fully developed one: measured 1.6e-3 (Q1 on h = 0.1)
+    const DIE_TOL: f64 = 1e-2;
+    let grid = SwellMesh {
+        h: 0.1,
+        graded: true,
+    };
+    let newtonian = swell(grid, 0.0, SWELL_DT, SWELL_T_MAX).unwrap();
+    let ucm = swell(grid, 0.25, SWELL_DT, SWELL_T_MAX).unwrap();
+    assert!(ucm.steady, "steady test not met: {:.2e}", ucm.last_change);
+    assert!(ucm.die_error < DIE_TOL, "die: {:.2e}", ucm.die_error);
+    assert_eq!(ucm.profile[0], (0.0, 1.0), "H(0) = H0");
+    let dip = ucm.swell / newtonian.swell - 1.0;
+    assert!(
+        (dip - PUBLISHED_DIP).abs() < COARSE_DIP_TOL,
+        "dip {dip:.4} (swell {} against {})",
+        ucm.swell,
+        newtonian.swell
     );
 }

@@ -60,15 +60,24 @@ pub enum Command {
         /// for Wi > 0 one mesh that runs in a minute or two (0.1 up to Wi = 0.45, 0.07 above).
         #[arg(long, alias = "mesh", value_delimiter = ',')]
         h: Option<Vec<f64>>,
+        /// Deborah numbers De = λγ̇_w of the extrudate-swell study (comma-separated; 0: Newtonian,
+        /// above 0 the UCM fluid of thesis §6.4).
+        #[arg(long, value_delimiter = ',', default_values_t = vec![0.0])]
+        de: Vec<f64>,
+        /// Extrudate swell: refine around the die exit (`--h` there, elements growing away from
+        /// it) instead of a uniform mesh.
+        #[arg(long)]
+        graded: bool,
         /// Directory for CSV output (trajectories).
         #[arg(long, default_value = "results/validate")]
         out: std::path::PathBuf,
-        /// Time step (viscoelastic cylinder study).
-        #[arg(long, default_value_t = 0.01)]
-        dt: f64,
-        /// Longest simulated time before giving up on the steady state (viscoelastic cylinder).
-        #[arg(long, default_value_t = 20.0)]
-        t_max: f64,
+        /// Time step (viscoelastic cylinder study: default 0.01; extrudate swell: 0.05).
+        #[arg(long)]
+        dt: Option<f64>,
+        /// Longest simulated time before giving up on the steady state (viscoelastic cylinder:
+        /// default 20; extrudate swell: 40).
+        #[arg(long)]
+        t_max: Option<f64>,
         /// Quadtree levels of the cut-cell quadrature (default: the cases' default).
         #[arg(long, default_value_t = crate::config::DEFAULT_QUADTREE_LEVEL)]
         cut_level: u32,

@@ -6,32 +6,124 @@ use std::process::ExitCode;
 
 use super::validate::verdict;
 use crate::validate::extrudate::{
-    extrapolate, newtonian_swell, NEWTONIAN_SWELL, SWELL_DT, SWELL_TOL, SWELL_T_MAX,
+    extrapolate, published_swell, swell, SwellMesh, SwellRun, NEWTONIAN_SWELL, SWELL_TOL,
+    VISCOELASTIC_SWELL_TOL,
 };
 
-/// Runs the study on the element sizes `hs` (coarse to fine, each half the last for the
-/// extrapolation), prints `swell = …` per mesh and writes each steady profile to `out`.
-pub(super) fn validate_extrudate_swell(hs: &[f64], out: &Path) -> anyhow::Result<ExitCode> {
+/// Runs the study at each Deborah number of `des` on the element sizes `hs` (coarse to fine,
+/// each half the last for the extrapolation), prints `swell = …` per mesh and writes each steady
+/// profile to `out`; the verdict holds when every De passes.
+pub(super) fn validate_extrudate_swell(
+    hs: &[f64],
+    des: &[f64],
+    graded: bool,
+    dt: f64,
+    t_max: f64,
+    out: &Path,
+) -> anyhow::Result<ExitCode> {
+    let mut pass = true;
+    for &de in des {
+        pass &= if de == 0.0 {
+            newtonian(hs, graded, dt, t_max, out)?
+        } else {
+            viscoelastic(hs, graded, de, dt, t_max, out)?
+        };
+    }
+    Ok(verdict(pass))
+}
+
+/// The table's header (die error: the conformation in the die against the fully developed one).
+fn print_header() {
     println!(
-        "Extrudate swell, Newtonian (thesis §6.4, De = 0): die 2 × H0 = 1, extrudate 3, Q = 1, \
-         Δt = {SWELL_DT}; published H_max/H0 = {NEWTONIAN_SWELL}"
+        "| h | elements (fluid) | steps | steady | max ΔH last step | die error | swell | time |"
     );
-    println!("| h | elements (fluid) | steps | steady | max ΔH last step | swell | time |");
-    println!("|---|---|---|---|---|---|---|");
+    println!("|---|---|---|---|---|---|---|---|");
+}
+
+/// Runs one mesh, prints its row and writes its profile.
+fn run_mesh(grid: SwellMesh, de: f64, dt: f64, t_max: f64, out: &Path) -> anyhow::Result<SwellRun> {
+    let r = swell(grid, de, dt, t_max)?;
+    let h = grid.h;
+    println!(
+        "| {h} | {} ({}) | {} | {} | {:.1e} | {:.1e} | {:.5} | {:.1} s |",
+        r.elements.0,
+        r.elements.1,
+        r.steps,
+        r.steady,
+        r.last_change,
+        r.die_error,
+        r.swell,
+        r.seconds
+    );
+    let mut csv = String::from("x,H\n");
+    for (x, y) in &r.profile {
+        csv += &format!("{x},{y}\n");
+    }
     std::fs::create_dir_all(out)?;
+    let name = if grid.graded { "graded_" } else { "" };
+    std::fs::write(
+        out.join(format!("extrudate_swell_de{de}_{name}h{h}.csv")),
+        csv,
+    )?;
+    Ok(r)
+}
+
+/// De > 0: each mesh's swell against the thesis' M4 value (Table 6.3).
+fn viscoelastic(
+    hs: &[f64],
+    graded: bool,
+    de: f64,
+    dt: f64,
+    t_max: f64,
+    out: &Path,
+) -> anyhow::Result<bool> {
+    let published = published_swell(de);
+    println!(
+        "Extrudate swell, UCM (thesis §6.4), De = {de}: die 2 × H0 = 1, extrudate 3, Q = 1, \
+         Δt = {dt}; published (M4) {}",
+        published.map_or("none".into(), |p| format!("{p}"))
+    );
+    print_header();
     let mut runs = Vec::new();
     for &h in hs {
-        let r = newtonian_swell(h, SWELL_DT, SWELL_T_MAX)?;
-        println!(
-            "| {h} | {} ({}) | {} | {} | {:.1e} | {:.5} | {:.1} s |",
-            r.elements.0, r.elements.1, r.steps, r.steady, r.last_change, r.swell, r.seconds
-        );
-        let mut csv = String::from("x,H\n");
-        for (x, y) in &r.profile {
-            csv += &format!("{x},{y}\n");
+        runs.push(run_mesh(SwellMesh { h, graded }, de, dt, t_max, out)?);
+    }
+    for r in &runs {
+        println!("De = {de}, h = {}: swell = {:.5}", r.h, r.swell);
+    }
+    let steady = runs.iter().all(|r| r.steady);
+    let Some(last) = runs.last() else {
+        return Ok(false);
+    };
+    Ok(match published {
+        Some(p) => {
+            let rel = last.swell / p - 1.0;
+            println!(
+                "De = {de}: finest mesh {:.5} against {p}: {rel:+.2e} (tolerance \
+                 {VISCOELASTIC_SWELL_TOL:.0e} up to De = 0.75){}",
+                last.swell,
+                if steady {
+                    ""
+                } else {
+                    " (a run did not reach the steady test)"
+                }
+            );
+            steady && (de > 0.75 || rel.abs() <= VISCOELASTIC_SWELL_TOL)
         }
-        std::fs::write(out.join(format!("extrudate_swell_h{h}.csv")), csv)?;
-        runs.push(r);
+        None => steady,
+    })
+}
+
+/// De = 0: the swells extrapolated to h → 0 against the published 1.188.
+fn newtonian(hs: &[f64], graded: bool, dt: f64, t_max: f64, out: &Path) -> anyhow::Result<bool> {
+    println!(
+        "Extrudate swell, Newtonian (thesis §6.4, De = 0): die 2 × H0 = 1, extrudate 3, Q = 1, \
+         Δt = {dt}; published H_max/H0 = {NEWTONIAN_SWELL}"
+    );
+    print_header();
+    let mut runs = Vec::new();
+    for &h in hs {
+        runs.push(run_mesh(SwellMesh { h, graded }, 0.0, dt, t_max, out)?);
     }
     for r in &runs {
         println!("h = {}: swell = {:.5}", r.h, r.swell);
@@ -60,7 +152,5 @@ pub(super) fn validate_extrudate_swell(hs: &[f64], out: &Path) -> anyhow::Result
             " (a run did not reach the steady test)"
         }
     );
-    Ok(verdict(
-        steady && (best - NEWTONIAN_SWELL).abs() <= SWELL_TOL,
-    ))
+    Ok(steady && (best - NEWTONIAN_SWELL).abs() <= SWELL_TOL)
 }

@@ -12,7 +12,12 @@
 //!   that lies on a grid line: the elements above it are then cut by slivers below the discard
 //!   ratio (removed) and those below are fluid, so the die wall is a line of mesh nodes where the
 //!   caller imposes no-slip.
+//! - [`stretch_map`]: the temporary ALE map of the moving surface (§6.3.3): each mesh column
+//!   stretched vertically so that the surface of one configuration lands on the next, the
+//!   symmetry line and the mesh top fixed.
 
+use crate::mesh::Mesh;
+use crate::solver::ale::{stencil_at, AleMap, Remap, StencilWeights};
 use crate::solver::bdf::Bdf2;
 use crate::xfem::LevelSet;
 
@@ -222,6 +227,72 @@ impl LevelSet for SurfaceLevelSet<'_> {
     }
 }
 
+/// The temporary ALE map of a free surface (thesis §6.3.3) carrying the history from the fluid
+/// below `old` (the predicted surface Ĥⁿ of the last step, the domain of sⁿ) to the fluid below
+/// `new` (Ĥⁿ⁺¹), and, with `older` (Ĥⁿ⁻¹) and a BDF2 step, the second pre-image of Eq. 5.43. The
+/// thesis solves a Laplace problem for the displacement with d = (Ĥⁿ⁺¹ − Ĥⁿ) e_y on the surface;
+/// here each mesh column x is stretched piecewise linearly in y: [0, Ĥⁿ] onto [0, Ĥⁿ⁺¹] and
+/// [Ĥⁿ, top] onto [Ĥⁿ⁺¹, top]. It moves the surface as the thesis' map does, keeps the symmetry
+/// line, the die (Ĥ = H0 for x ≤ 0) and the mesh top fixed, and is the identity once the surface
+/// is steady, so the steady state does not depend on it. Pre-images are interpolated with `remap`.
+///
+/// # Panics
+/// If a pre-image falls outside the mesh (it cannot: the stretch maps [0, top] onto itself).
+#[allow(clippy::too_many_arguments)]
+pub fn stretch_map(
+    mesh: &Mesh,
+    top: f64,
+    new: &HeightFunction,
+    old: &HeightFunction,
+    older: Option<&HeightFunction>,
+    bdf: Bdf2,
+    dt: f64,
+    remap: Remap,
+) -> AleMap {
+    let back = |y: f64, to: f64, from: f64| {
+        if y <= to {
+            y * from / to
+        } else {
+            from + (y - to) * (top - from) / (top - to)
+        }
+    };
+    let older = older.filter(|_| !bdf.is_euler());
+    let at = |x: [f64; 2]| -> StencilWeights {
+        let y = x[1].clamp(0.0, top);
+        stencil_at(mesh, [x[0], y], remap).expect("a stretch pre-image lies in the mesh")
+    };
+    let nn = mesh.n_nodes();
+    let mut at_n = Vec::with_capacity(mesh.n_vertices());
+    let mut at_nm1 = older.map(|_| Vec::with_capacity(mesh.n_vertices()));
+    let mut displacement = Vec::with_capacity(mesh.n_vertices());
+    let mut mesh_velocity = Vec::with_capacity(nn);
+    // vertices come in node order (`vertex_of_node` numbers them so)
+    for k in 0..nn {
+        let x = mesh.nodes[k];
+        let (h_new, h_old) = (new.at(x[0]), old.at(x[0]));
+        let yn = back(x[1], h_new, h_old);
+        let ynm1 = older.map(|o| back(yn, h_old, o.at(x[0])));
+        if mesh.vertex_of_node[k].is_some() {
+            at_n.push(at([x[0], yn]));
+            displacement.push([0.0, x[1] - yn]);
+            if let (Some(v), Some(y2)) = (at_nm1.as_mut(), ynm1) {
+                v.push(at([x[0], y2]));
+            }
+        }
+        let um = match ynm1 {
+            Some(y2) => (bdf.c0 * x[1] - bdf.c1 * yn + bdf.c2 * y2) / dt,
+            None => (x[1] - yn) / dt,
+        };
+        mesh_velocity.push([0.0, um]);
+    }
+    AleMap {
+        at_n,
+        at_n_minus_1: at_nm1,
+        mesh_velocity,
+        displacement,
+    }
+}
+
 #[cfg(test)]
 mod tests {
     use super::*;
@@ -257,5 +328,74 @@ mod tests {
         assert!(ls.value([-1.0, 1.0]) > 0.0 && ls.value([-1.0, 1.0 + 1e-6]) < 0.0);
         assert!((ls.value([1.5, 1.0]) - 0.2 / 0.2f64.hypot(1.0)).abs() < TOL);
         assert!((s.at(0.5) - 1.1).abs() < TOL && s.at(5.0) == 1.2 && s.at(-1.0) == 1.0);
+    }
+    /// The surface's ALE map: the new surface's points come from the old surface, the points
+    /// above it from between the old surface and the fixed top, the die and the symmetry line stay
+    /// (read off by interpolating the field f = y, which the bilinear stencil reproduces), and the
+    /// mesh velocity is the Euler one, (y − yⁿ)/Δt; equal surfaces map to themselves.
+    #[test]
+    fn the_stretch_map_carries_the_old_surface_onto_the_new_one() {
+        use crate::mesh::Axis;
+        let mesh = Mesh::rectangle(
+            Axis::uniform(-1.0, 2.0, 12),
+            Axis::uniform(0.0, 2.0, 8),
+            false,
+        );
+        let x: Vec<f64> = (0..=16).map(|i| 0.125 * i as f64).collect();
+        let old = HeightFunction::flat(x.clone(), 1.0);
+        let mut new = HeightFunction::flat(x, 1.0);
+        new.h.iter_mut().skip(1).for_each(|h| *h = 1.5);
+        let (dt, top) = (0.1, 2.0);
+        let map = stretch_map(
+            &mesh,
+            top,
+            &new,
+            &old,
+            None,
+            Bdf2::EULER,
+            dt,
+            Remap::Bilinear,
+        );
+        assert!(map.at_n_minus_1.is_none());
+        let y: Vec<f64> = mesh
+            .node_of_vertex
+            .iter()
+            .map(|&n| mesh.nodes[n][1])
+            .collect();
+        let pre_image = |v: usize| -> f64 {
+            (0..16)
+                .map(|k| map.at_n[v].1[k] * y[map.at_n[v].0[k]])
+                .sum()
+        };
+        for v in 0..mesh.n_vertices() {
+            let node = mesh.node_of_vertex[v];
+            let [xv, yv] = mesh.nodes[node];
+            let want = if xv <= 0.0 {
+                yv
+            } else if yv <= 1.5 {
+                yv / 1.5
+            } else {
+                1.0 + (yv - 1.5) * (top - 1.0) / (top - 1.5)
+            };
+            assert!(
+                (pre_image(v) - want).abs() < TOL,
+                "({xv}, {yv}): {}",
+                pre_image(v)
+            );
+            assert!((map.mesh_velocity[node][1] - (yv - want) / dt).abs() < TOL / dt);
+            assert_eq!(map.mesh_velocity[node][0], 0.0);
+        }
+        let still = stretch_map(
+            &mesh,
+            top,
+            &new,
+            &new,
+            Some(&new),
+            Bdf2::after(dt, Some(dt)),
+            dt,
+            Remap::Bilinear,
+        );
+        assert!(still.mesh_velocity.iter().all(|u| u[1].abs() < TOL));
+        assert!(still.at_n_minus_1.is_some());
     }
 }

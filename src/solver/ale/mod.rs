@@ -30,7 +30,7 @@ mod annulus_tests;
 mod tests;
 
 pub use extend::{extend_inside, EXTENSION_LAYERS};
-pub use stencil::{Remap, StencilWeights, STENCIL_LEN};
+pub use stencil::{stencil_at, Remap, StencilWeights, STENCIL_LEN};
 
 use displacement::laplace_elements;
 use locate::{nearest_image, pre_image};

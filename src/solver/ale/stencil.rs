@@ -36,6 +36,12 @@ pub const STENCIL_LEN: usize = 16;
 /// biquadratic ones, a 4×4 one with bicubic ones; unused entries have weight 0).
 pub type StencilWeights = ([usize; STENCIL_LEN], [f64; STENCIL_LEN]);
 
+/// Interpolation weights of a vertex field at the physical point `x` (`None` outside the mesh):
+/// a pre-image given by a map of its own (the free surface's vertical stretch).
+pub fn stencil_at(mesh: &Mesh, x: [f64; 2], remap: Remap) -> Option<StencilWeights> {
+    mesh.locate(x).map(|(e, xi)| stencil(mesh, e, xi, remap))
+}
+
 /// Interpolation weights of a vertex field at reference point `xi` of element `e`.
 pub(super) fn stencil(mesh: &Mesh, e: usize, xi: [f64; 2], remap: Remap) -> StencilWeights {
     let mut out = ([0; STENCIL_LEN], [0.0; STENCIL_LEN]);

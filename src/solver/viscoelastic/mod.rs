@@ -18,6 +18,7 @@
 //! mesh in `history`; the saved state and its restore in `state`; particle forces and stress
 //! read-outs in `forces`; flow-rate control in `flow_rate`; what a step reports in `report`.
 
+mod boundary;
 mod coupling_lag;
 mod flow_rate;
 mod forces;
@@ -36,7 +37,7 @@ use std::time::Instant;
 use flow_rate::FlowRateControl;
 
 use crate::fem::linsolve::SolverKind;
-use crate::mesh::{Mesh, Side};
+use crate::mesh::Mesh;
 use crate::rheology::{Fluid, Sym2};
 use crate::solver::constitutive::{
     LogConformationHistory, LogConformationTransport, TransportFlow,
@@ -141,7 +142,7 @@ impl ViscoelasticFlow {
         let mut transport = LogConformationTransport::new(&mesh);
         transport.supg = params.supg;
         let mut projection = Q1Projection::new(&mesh);
-        if n_particles > 0 {
+        if cuts.iter().any(|c| !matches!(c, ElementCut::Fluid)) {
             transport.set_cuts(&mesh, cuts.clone());
             projection.set_cuts(&mesh, cuts.clone());
         }
@@ -171,20 +172,6 @@ impl ViscoelasticFlow {
             started: false,
             mesh,
         })
-    }
-
-    /// Prescribes the velocity on a side (walls), for all times.
-    pub fn set_velocity(
-        &mut self,
-        side: Side,
-        f: impl Fn([f64; 2]) -> [f64; 2] + Send + Sync + 'static,
-    ) {
-        self.stokes.set_velocity(side, f);
-    }
-
-    /// Pins the pressure (enclosed flows).
-    pub fn pin_pressure(&mut self) {
-        self.stokes.pin_pressure();
     }
 
     /// Rigid-body velocities (U_x, U_y, ω counter-clockwise) of the particles in the last flow
