@@ -39,6 +39,30 @@ pub struct FlowState {
 }
 
 impl ViscoelasticFlow {
+    /// Starts from the log-conformation `s0(x)` at every vertex instead of rest (call before the
+    /// first step): the history and the projected conformation c⁰ = Π exp(s0).
+    ///
+    /// # Errors
+    /// [`ViscoelasticError::Stress`] if the projection fails.
+    pub fn set_initial_log_conformation(
+        &mut self,
+        s0: impl Fn([f64; 2]) -> Sym2,
+    ) -> Result<(), ViscoelasticError> {
+        let s: Vec<Sym2> = self
+            .mesh
+            .node_of_vertex
+            .iter()
+            .map(|&n| s0(self.mesh.nodes[n]))
+            .collect();
+        self.history = LogConformationHistory::from_field(s);
+        self.projection.project_conformation(
+            &self.mesh,
+            &self.history.current,
+            &mut self.conformation,
+        )?;
+        Ok(())
+    }
+
     /// The time-dependent state after a step: what [`restore`](Self::restore) needs to continue
     /// a run from here in another process (everything else follows from the mesh, the
     /// parameters and the particle positions).
