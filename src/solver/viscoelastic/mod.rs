@@ -141,6 +141,7 @@ impl ViscoelasticFlow {
         let n_particles = particles.len();
         let mut transport = LogConformationTransport::new(&mesh);
         transport.supg = params.supg;
+        transport.ghost_penalty = params.stress_ghost_penalty;
         let mut projection = Q1Projection::new(&mesh);
         if cuts.iter().any(|c| !matches!(c, ElementCut::Fluid)) {
             transport.set_cuts(&mesh, cuts.clone());

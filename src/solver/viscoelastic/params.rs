@@ -50,6 +50,9 @@ pub struct ViscoelasticParams {
     /// The SUPG parameter of the stress transport (default Case 1 at the step's Δt;
     /// [`SupgVelocity::LocalAt`] for variable steps).
     pub supg: SupgVelocity,
+    /// Ghost-penalty factor of the stress transport on the faces of cut elements (default
+    /// [`GHOST_PENALTY`](crate::solver::constitutive::GHOST_PENALTY)).
+    pub stress_ghost_penalty: f64,
 }
 
 impl ViscoelasticParams {
@@ -90,6 +93,7 @@ impl ViscoelasticParams {
             rigid_form: WeakForm::Symmetric,
             factorization: Factorization::Band,
             supg: SupgVelocity::Local,
+            stress_ghost_penalty: crate::solver::constitutive::GHOST_PENALTY,
         }
     }
 
