@@ -174,6 +174,10 @@ pub fn transport_element_kernel(
     }
 }
 
+/// The matrix positions of the inflow rows' entries, and each active inflow vertex with the
+/// position of its diagonal and its value.
+type InflowRows = (Vec<usize>, Vec<(usize, usize, Sym2)>);
+
 /// The log-conformation transport solver on one mesh topology: fixed Q1 pattern, LU with the
 /// symbolic analysis done on the first step.
 pub struct LogConformationTransport {
@@ -184,6 +188,9 @@ pub struct LogConformationTransport {
     fixed: Vec<Option<f64>>,
     /// Vertices where s is prescribed (an inflow boundary), and the value there.
     inflow: Vec<(usize, Sym2)>,
+    /// Positions in `matrix` of the inflow vertices' rows and diagonals (active vertices only),
+    /// found once per pattern and cut set (`None`: to be found).
+    inflow_rows: Option<InflowRows>,
     solver: Option<DirectSolver>,
     rule: Vec<([f64; 2], f64)>,
     cuts: Vec<ElementCut>,
@@ -221,6 +228,7 @@ impl LogConformationTransport {
             rhs: [vec![0.0; nv], vec![0.0; nv], vec![0.0; nv]],
             fixed: vec![None; nv],
             inflow: Vec::new(),
+            inflow_rows: None,
             solver: None,
             rule: rule.points.into_iter().zip(rule.weights).collect(),
             cuts: vec![ElementCut::Fluid; mesh.n_elements()],
@@ -240,6 +248,7 @@ impl LogConformationTransport {
     pub fn set_cuts(&mut self, mesh: &Mesh, cuts: Vec<ElementCut>) {
         assert_eq!(cuts.len(), self.n_elements, "one ElementCut per element");
         self.fixed = inactive_vertices(mesh, &cuts);
+        self.inflow_rows = None;
         let ghost = ghost_faces(mesh, &cuts);
         // the faces couple vertices of neighbouring elements: a new pattern when they leave
         // those the last one was built for
@@ -259,39 +268,46 @@ impl LogConformationTransport {
             "inflow vertex"
         );
         self.inflow = inflow;
+        self.inflow_rows = None;
     }
 
     /// Replaces the rows of the inflow vertices by s = s_in (after assembly; the LU solver needs
-    /// no symmetry).
+    /// no symmetry). The rows' positions are found once per pattern and cut set.
     fn apply_inflow(&mut self) {
         if self.inflow.is_empty() {
             return;
         }
-        let mut row = vec![false; self.n_vertices];
-        for &(v, _) in &self.inflow {
-            row[v] = self.fixed[v].is_none();
-        }
-        let mut rows = Vec::new();
-        for j in 0..self.n_vertices {
-            let (col, range) = self.matrix.column(j);
-            rows.extend(
-                col.iter()
-                    .zip(range)
-                    .filter(|&(&i, _)| row[i])
-                    .map(|(_, p)| p),
-            );
-        }
-        for p in rows {
+        let (rows, diagonals) = self.inflow_rows.get_or_insert_with(|| {
+            let mut row = vec![false; self.n_vertices];
+            for &(v, _) in &self.inflow {
+                row[v] = self.fixed[v].is_none();
+            }
+            let mut rows = Vec::new();
+            for j in 0..self.n_vertices {
+                let (col, range) = self.matrix.column(j);
+                rows.extend(
+                    col.iter()
+                        .zip(range)
+                        .filter(|&(&i, _)| row[i])
+                        .map(|(_, p)| p),
+                );
+            }
+            let diagonals = self
+                .inflow
+                .iter()
+                .filter(|&&(v, _)| row[v])
+                .map(|&(v, s)| (v, self.matrix.position(v, v), s))
+                .collect();
+            (rows, diagonals)
+        });
+        for &p in rows.iter() {
             self.matrix.values[p] = 0.0;
         }
-        for &(v, s) in &self.inflow {
-            if row[v] {
-                let p = self.matrix.position(v, v);
-                self.matrix.values[p] = 1.0;
-                self.rhs[0][v] = s.xx;
-                self.rhs[1][v] = s.xy;
-                self.rhs[2][v] = s.yy;
-            }
+        for &(v, p, s) in diagonals.iter() {
+            self.matrix.values[p] = 1.0;
+            self.rhs[0][v] = s.xx;
+            self.rhs[1][v] = s.xy;
+            self.rhs[2][v] = s.yy;
         }
     }
 

@@ -13,7 +13,7 @@
 
 use crate::fem::element::q2;
 use crate::mesh::{Axis, Mesh, Side};
-use crate::rheology::Sym2;
+use crate::rheology::{giesekus_steady_shear_conformation, Sym2};
 use crate::solver::ale::Remap;
 use crate::solver::bdf::Bdf2;
 use crate::solver::constitutive_projection::sym_at;
@@ -196,12 +196,11 @@ pub fn newtonian_swell(h: f64, dt: f64, t_max: f64) -> Result<SwellRun, SwellErr
     swell(SwellMesh { h, graded: false }, 0.0, dt, t_max)
 }
 
-/// The fully developed log-conformation of a UCM fluid (η_s = 0, η_p = 1, relaxation time
-/// `lambda`) in the die's Poiseuille flow u = (3/2)(1 − y²) at height `y`: shear rate
-/// γ̇ = −3y, c = [[1 + 2(λγ̇)², λγ̇], [λγ̇, 1]], s = log c.
+/// The fully developed log-conformation of a UCM fluid (relaxation time `lambda`) in the die's
+/// Poiseuille flow u = (3/2)(1 − y²) at height `y`: the steady simple-shear state at
+/// Wi = λγ̇, γ̇ = −3y ([`giesekus_steady_shear_conformation`] with α = 0), s = log c.
 pub fn die_log_conformation(lambda: f64, y: f64) -> Sym2 {
-    let wi = lambda * (-3.0 * y);
-    Sym2::new(1.0 + 2.0 * wi * wi, wi, 1.0)
+    giesekus_steady_shear_conformation(-3.0 * lambda * y, 0.0)
         .log()
         .expect("the fully developed conformation is positive definite")
 }

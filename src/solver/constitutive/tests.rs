@@ -6,6 +6,11 @@ use crate::mesh::Axis;
 /// Closed-form values through a few flops: round-off only.
 const ROUND_OFF: f64 = 1e-13;
 
+/// The nodal velocity `u` everywhere and G = 0: a flow that only translates the stress.
+fn uniform_translation(mesh: &Mesh, u: [f64; 2]) -> (Vec<[f64; 2]>, Vec<[f64; 4]>) {
+    (vec![u; mesh.n_nodes()], vec![[0.0; 4]; mesh.n_vertices()])
+}
+
 #[test]
 fn supg_tau_follows_the_courant_switch() {
     // C = 2 ≥ 1: τ = h/(2U); C = 0.5 < 1: τ = Δt/2; U = 0: Δt/2
@@ -37,8 +42,7 @@ fn uniform_field_in_uniform_flow_follows_the_point_scheme() {
     let model = Giesekus::new(0.7, 1.0, 0.3).unwrap();
     let dt = 0.05;
     let s0 = Sym2::new(0.4, -0.2, 0.1);
-    let u = vec![[1.3, 0.0]; mesh.n_nodes()];
-    let g = vec![[0.0; 4]; mesh.n_vertices()];
+    let (u, g) = uniform_translation(&mesh, [1.3, 0.0]);
     let flow = TransportFlow {
         velocity: &u,
         mesh_velocity: None,
@@ -116,8 +120,7 @@ fn an_inflow_state_relaxes_downstream_as_the_exact_steady_solution() {
         .map(|v| (v, s_in))
         .collect();
     assert_eq!(inflow.len(), 3);
-    let u = vec![[1.0, 0.0]; mesh.n_nodes()];
-    let g = vec![[0.0; 4]; mesh.n_vertices()];
+    let (u, g) = uniform_translation(&mesh, [1.0, 0.0]);
     let flow = TransportFlow {
         velocity: &u,
         mesh_velocity: None,

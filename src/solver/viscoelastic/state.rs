@@ -177,3 +177,34 @@ impl ViscoelasticFlow {
         Ok(())
     }
 }
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+    use crate::mesh::Axis;
+    use crate::solver::viscoelastic::ViscoelasticParams;
+
+    /// A start from a given state: the history holds it and the flow sees c⁰ = exp(s0), which
+    /// the Q1 projection reproduces for a uniform state (round-off).
+    #[test]
+    fn an_initial_state_is_the_history_and_the_projected_conformation() {
+        const ROUND_OFF: f64 = 1e-12;
+        let mesh = Mesh::rectangle(
+            Axis::uniform(0.0, 2.0, 4),
+            Axis::uniform(0.0, 1.0, 2),
+            false,
+        );
+        let params = ViscoelasticParams::new(0.1, 0.9, 1.0, 0.0, 0.01, 1.0);
+        let mut flow = ViscoelasticFlow::new(mesh, params).unwrap();
+        let s0 = crate::rheology::giesekus_steady_shear_conformation(0.7, 0.0)
+            .log()
+            .unwrap();
+        flow.set_initial_log_conformation(|_| s0).unwrap();
+        assert!(flow.history().current.iter().all(|&s| s == s0));
+        assert_eq!(flow.history().steps(), 0);
+        let c0 = s0.exp();
+        for c in flow.conformation() {
+            assert!((*c - c0).norm() < ROUND_OFF, "{c:?} vs {c0:?}");
+        }
+    }
+}
