@@ -45,6 +45,8 @@ KIND_STYLE = {
     "string": ("o", "tab:green", "string"),
     "jammed": ("s", "black", "jammed"),
     "wall_contact": ("^", "tab:purple", "wall contact"),
+    "surface_contact": ("<", "tab:pink", "surface contact"),
+    "exited": ("h", "tab:brown", "reached the outflow"),
     "steady": ("D", "tab:olive", "steady"),
     "migrated": ("v", "tab:cyan", "migrated"),
     "timeout": ("P", "tab:gray", "timeout (undecided)"),

@@ -85,7 +85,7 @@ fn particle_free_flow_matches_the_analytic_profile() {
         let mut flow =
             ViscoelasticFlow::new(m.clone(), ViscoelasticParams::newtonian(1.0, DT, 0.0))
                 .expect("valid parameters");
-        apply_walls(&g, &mut flow);
+        apply_walls(&g, &mut flow).unwrap();
         flow.start(&|_| [0.0, 0.0]).expect("solve");
         let err = m
             .nodes

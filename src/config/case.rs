@@ -7,7 +7,7 @@ use crate::fem::substructure::Factorization;
 use crate::solver::multiplier::RigidCondition;
 use serde::{Deserialize, Serialize};
 
-use crate::geometry::layout;
+use crate::geometry::{layout, Extrusion};
 use crate::mesh::follow::Follow;
 use crate::mesh::{Axis, FollowingMesh, Mesh, Shape};
 
@@ -63,6 +63,26 @@ pub enum Geometry {
         /// Angular velocity ω̄ of the inner cylinder.
         #[serde(default = "one")]
         omega_inner: f64,
+    },
+    /// Extrusion (thesis §6.5, Fig. 6.1): a planar die of half-height H0 over −L_w ≤ x ≤ 0 (wall
+    /// y = H0, symmetry line y = 0) fed with the fully developed profile of flow rate Q per
+    /// half-width, and an extrudate over 0 ≤ x ≤ L_fs with a free surface, open at x = L_fs.
+    /// `numerics.mesh` = [n_x, n_y] uniform elements on [−L_w, L_fs] × [0, height], with grid
+    /// lines on x = 0 and y = H0. Wi = λU/H0, U = Q/H0 (for UCM, §6.4's De = 3 Wi).
+    Extrusion {
+        /// Die half-height H0.
+        #[serde(default = "one")]
+        h0: f64,
+        /// Die length L_w (the thesis' §6.5: 3).
+        die_length: f64,
+        /// Extrudate length L_fs (the thesis' §6.5: 4).
+        extrudate_length: f64,
+        /// Flow rate Q per half-width.
+        #[serde(default = "one")]
+        flow_rate: f64,
+        /// Height of the mesh above the symmetry line: room for the swell (default 2 H0).
+        #[serde(default, skip_serializing_if = "Option::is_none")]
+        height: Option<f64>,
     },
     /// Fixed cylinder of radius R at the centre of a channel with a parabolic inflow of mean velocity U
     /// (thesis Ch. 2 benchmark: H = 4R, L = 30R).
@@ -427,11 +447,12 @@ fn default_sample_every() -> u64 {
 
 /// Short name of a geometry variant, as used in messages and the `cases.geometry` column.
 impl Geometry {
-    /// `confined_shear`, `couette` or `cylinder_channel`.
+    /// `confined_shear`, `couette`, `extrusion` or `cylinder_channel`.
     pub fn kind(&self) -> &'static str {
         match self {
             Geometry::ConfinedShear { .. } => "confined_shear",
             Geometry::Couette { .. } => "couette",
+            Geometry::Extrusion { .. } => "extrusion",
             Geometry::CylinderChannel { .. } => "cylinder_channel",
         }
     }
@@ -456,7 +477,28 @@ impl CaseSpec {
                 n.mesh[1],
                 Axis::centred(r1, r2, n.mesh[0], n.grading),
             )),
+            Geometry::Extrusion { .. } => self.extrusion().map(|e| e.mesh(n.mesh[0], n.mesh[1])),
             Geometry::CylinderChannel { .. } => None,
+        }
+    }
+
+    /// The extrusion set-up of an `extrusion` geometry (the mesh height resolved).
+    pub fn extrusion(&self) -> Option<Extrusion> {
+        match self.geometry {
+            Geometry::Extrusion {
+                h0,
+                die_length,
+                extrudate_length,
+                flow_rate,
+                height,
+            } => Some(Extrusion {
+                h0,
+                die_length,
+                extrudate_length,
+                flow_rate,
+                top: height.unwrap_or(DEFAULT_EXTRUSION_HEIGHT * h0),
+            }),
+            _ => None,
         }
     }
 
@@ -517,7 +559,7 @@ impl CaseSpec {
                 let omega = omega_inner * r1 * r1 / d * (r2 * r2 / r_sq - 1.0);
                 (0.0, omega)
             }
-            Geometry::CylinderChannel { .. } => (0.0, 0.0),
+            Geometry::CylinderChannel { .. } | Geometry::Extrusion { .. } => (0.0, 0.0),
         }
     }
 
@@ -527,9 +569,11 @@ impl CaseSpec {
     }
 
     /// Characteristic rate γ̇ that makes times and angular velocities dimensionless (t* = tγ̇, ω* = ω/γ̇):
-    /// U_w/H (confined shear, thesis 5.7.1), ω̄ R1/(R2 − R1) (Couette, 3.5.1), U/R (cylinder channel).
+    /// U_w/H (confined shear, thesis 5.7.1), ω̄ R1/(R2 − R1) (Couette, 3.5.1), U/R (cylinder channel),
+    /// U/H0 = Q/H0² (extrusion, 6.5.1).
     pub fn characteristic_rate(&self) -> f64 {
         match self.geometry {
+            Geometry::Extrusion { h0, flow_rate, .. } => flow_rate / (h0 * h0),
             Geometry::ConfinedShear { h, wall_speed, .. } => wall_speed / h,
             Geometry::Couette {
                 r1,
@@ -545,7 +589,8 @@ impl CaseSpec {
     }
 
     /// Relaxation time λ = Wi / γ̇ with the rate of [`Self::characteristic_rate`]: shear Wi = λU_w/H
-    /// (thesis 5.6.3), Couette Wi = λω̄R1/(R2 − R1) (3.5.1), cylinder Wi = λU/R (Ch. 2). 0 for Newtonian.
+    /// (thesis 5.6.3), Couette Wi = λω̄R1/(R2 − R1) (3.5.1), cylinder Wi = λU/R (Ch. 2), extrusion
+    /// Wi = λU/H0 (6.5.1). 0 for Newtonian.
     pub fn relaxation_time(&self) -> f64 {
         if self.fluid.model == Model::Newtonian {
             return 0.0;
@@ -608,7 +653,11 @@ impl CaseSpec {
             Geometry::ConfinedShear { h, l, .. } | Geometry::CylinderChannel { h, l, .. } => {
                 Some((h, l))
             }
-            Geometry::Couette { .. } => None,
+            Geometry::Couette { .. } | Geometry::Extrusion { .. } => None,
         }
     }
 }
+
+/// The mesh height of an extrusion above the symmetry line when the case does not give one, in
+/// die half-heights: Table 6.3's largest swell is 1.53 (De = 1.7).
+pub const DEFAULT_EXTRUSION_HEIGHT: f64 = 2.0;

@@ -170,6 +170,18 @@ impl CaseSpec {
                     })
                     .collect()
             }
+            // the die's profile at the particle's height (the fastest the fluid moves there)
+            Geometry::Extrusion { .. } => {
+                let Some(e) = self.extrusion() else {
+                    return Ok(());
+                };
+                let length = (e.die_length + e.extrudate_length) / self.numerics.mesh[0] as f64;
+                self.initial_positions()
+                    .iter()
+                    .enumerate()
+                    .map(|(i, x)| (i, e.inflow_velocity(x[1].abs()) + rim, length))
+                    .collect()
+            }
             Geometry::CylinderChannel { .. } => Vec::new(),
         };
         let Some((i, speed, length)) = moves

@@ -3,10 +3,14 @@
 
 use serde_json::Value;
 
-use super::case::{CaseSpec, FrameChoice, Geometry, HistoryRemap, Layout, Model, StressCoupling};
+use super::case::{
+    CaseSpec, FrameChoice, Geometry, HistoryRemap, Layout, Model, StressCoupling,
+    DEFAULT_EXTRUSION_HEIGHT,
+};
 use super::error::{json_path_at_line, SpecError};
 use super::time_step::TimeStep;
 use crate::geometry::layout;
+use crate::solver::multiplier::RigidCondition;
 
 /// Particles may touch each other or a wall initially (the thesis' δ = 2 set-up touches the walls, 5.7.3);
 /// only overlaps deeper than this fraction of the radius are rejected, to forgive decimal rounding.
@@ -117,6 +121,42 @@ impl CaseSpec {
                     return Err(SpecError::new(
                         "geometry.couette.r2",
                         format!("R2 = {r2} must exceed R1 = {r1}"),
+                    ));
+                }
+                Ok(())
+            }
+            Geometry::Extrusion {
+                h0,
+                die_length,
+                extrudate_length,
+                flow_rate,
+                height,
+            } => {
+                positive("geometry.extrusion.h0", h0)?;
+                positive("geometry.extrusion.die_length", die_length)?;
+                positive("geometry.extrusion.extrudate_length", extrudate_length)?;
+                positive("geometry.extrusion.flow_rate", flow_rate)?;
+                if let Some(top) = height {
+                    if top.is_nan() || top <= h0 {
+                        return Err(SpecError::new(
+                            "geometry.extrusion.height",
+                            format!(
+                                "the mesh height {top} must exceed the die half-height H0 = {h0} \
+                                 (room for the swell; default {DEFAULT_EXTRUSION_HEIGHT} H0)"
+                            ),
+                        ));
+                    }
+                }
+                let [nx, ny] = self.numerics.mesh;
+                let fits = self.extrusion().is_some_and(|e| e.fits(nx, ny));
+                if nx > 0 && ny > 0 && !fits {
+                    return Err(SpecError::new(
+                        "numerics.mesh",
+                        format!(
+                            "{nx}×{ny} uniform elements put no grid line on the die exit x = 0 or \
+                             the die wall y = H0: choose n_x with L_w/(L_w + L_fs)·n_x and n_y with \
+                             H0/height·n_y whole numbers"
+                        ),
                     ));
                 }
                 Ok(())
@@ -246,13 +286,14 @@ impl CaseSpec {
             let moving = match self.geometry {
                 Geometry::ConfinedShear { .. } => self.fluid.wi > 0.0,
                 Geometry::Couette { .. } => true,
-                Geometry::CylinderChannel { .. } => false,
+                Geometry::CylinderChannel { .. } | Geometry::Extrusion { .. } => false,
             };
             if !moving {
                 return Err(SpecError::new(
                     "numerics.follow",
                     "a mesh that follows the particles applies to the moving-particle runs \
-                     (Couette cell, confined shear with Wi > 0) only; remove the field",
+                     (Couette cell, confined shear with Wi > 0) only, not yet to extrusion; \
+                     remove the field",
                 ));
             }
             for (field, ratio) in [
@@ -368,11 +409,41 @@ impl CaseSpec {
             ));
         }
         n.method.check(n)?;
+        if self.extrusion().is_some() {
+            self.validate_extrusion_numerics()?;
+        }
         if self.output.sample_every == 0 {
             return Err(SpecError::new(
                 "output.sample_every",
                 "must be ≥ 1 (store every k-th step)",
             ));
+        }
+        Ok(())
+    }
+
+    /// What an extrusion runs with: XFEM (the free surface is cut like the particles), the weak
+    /// rigid-body condition and the lab frame (the die and the inflow stay put), a uniform mesh.
+    fn validate_extrusion_numerics(&self) -> Result<(), SpecError> {
+        let n = &self.numerics;
+        let not_with = |field: &str, what: &str| {
+            Err(SpecError::new(
+                field,
+                format!(
+                    "{what} is not available with a free surface (extrusion); remove the field"
+                ),
+            ))
+        };
+        if !n.method.is_xfem() {
+            return not_with("numerics.method", "the fictitious domain method");
+        }
+        if n.rigid_condition != RigidCondition::Weak {
+            return not_with("numerics.rigid_condition", "the multiplier condition");
+        }
+        if n.frame != FrameChoice::Lab || n.frame_velocity != 0.0 || n.frame_rotation != 0.0 {
+            return not_with("numerics.frame", "a moving frame");
+        }
+        if n.grading != 1.0 {
+            return not_with("numerics.grading", "a graded mesh");
         }
         Ok(())
     }
@@ -481,6 +552,26 @@ impl CaseSpec {
                                 layout::r_star(r1, r2, *q),
                                 eps / 2.0,
                                 1.0 - eps / 2.0
+                            ),
+                        ));
+                    }
+                }
+                check_pairs(&positions, a, None, layout_field)
+            }
+            Geometry::Extrusion { .. } => {
+                let Some(e) = self.extrusion() else {
+                    return Ok(());
+                };
+                for (i, q) in positions.iter().enumerate() {
+                    let inside = q[0] - a > -e.die_length && q[0] <= 0.0 && q[1] - a > 0.0;
+                    if !inside || e.die_wall_gap(*q, a) <= slack {
+                        return Err(SpecError::new(
+                            layout_field,
+                            format!(
+                                "particle {i} at ({}, {}) must start inside the die, clear of its \
+                                 wall, the inflow and the symmetry line: −L_w + a < x ≤ 0, \
+                                 a < y < H0 − a with L_w = {}, H0 = {}, a = {a}",
+                                q[0], q[1], e.die_length, e.h0
                             ),
                         ));
                     }

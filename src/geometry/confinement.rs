@@ -1,14 +1,26 @@
 //! What a solver needs to know of a problem set-up in which particles move: its walls and their
 //! velocities, its period, when particles touch each other or a wall, and its characteristic
-//! shear rate ([`Confinement`]); and the set-ups a case can name ([`SetUp`]).
+//! shear rate ([`Confinement`]); how the flow is bounded ([`Boundary`]); and the set-ups a case can
+//! name ([`SetUp`]).
 
-use super::{ConfinedShear, RotatingCouette};
+use super::{ConfinedShear, Extrusion, RotatingCouette};
 use crate::mesh::Side;
 use crate::particles::Contact;
 
-/// Where particles move. The walls are the mesh's bottom and top sides (the channel's walls, the
-/// annulus' inner and outer cylinders), where the velocity is prescribed and the pressure is
-/// pinned (the flow is enclosed).
+/// How the flow is bounded.
+#[derive(Debug, Clone, Copy, PartialEq)]
+pub enum Boundary {
+    /// Walls on the mesh's bottom and top sides (the channel's walls, the annulus' inner and
+    /// outer cylinders) with the velocities of [`Confinement::wall_velocity`]; the flow is
+    /// enclosed, so the pressure is pinned.
+    Walls,
+    /// An extrusion die and its extrudate: the inflow profile on the left side, the die wall and
+    /// the symmetry line inside the mesh, a free surface downstream and an open outflow.
+    Extrusion(Extrusion),
+}
+
+/// Where particles move: the walls (see [`Boundary`]), the period, contact and the rate that
+/// makes times dimensionless.
 pub trait Confinement: Send + Sync {
     /// Period in x of a periodic rectangle (`None` otherwise; the annulus needs none).
     fn period(&self) -> Option<f64>;
@@ -18,6 +30,10 @@ pub trait Confinement: Send + Sync {
     fn contact(&self, x: &[[f64; 2]], radius: &[f64], min_gap: f64) -> Option<Contact>;
     /// Characteristic shear rate γ̇ (t* = tγ̇, ω* = ω/γ̇).
     fn shear_rate(&self) -> f64;
+    /// How the flow is bounded (walls on the bottom and top sides unless said otherwise).
+    fn boundary(&self) -> Boundary {
+        Boundary::Walls
+    }
     /// The point moved into the period (identity without one).
     fn wrap(&self, x: [f64; 2]) -> [f64; 2] {
         match self.period() {
@@ -34,6 +50,8 @@ pub enum SetUp {
     ConfinedShear(ConfinedShear),
     /// The circular Couette cell (thesis §3.5.1), possibly from a rotating frame.
     Couette(RotatingCouette),
+    /// Extrusion through a die into a free-surface extrudate (thesis §6.5).
+    Extrusion(Extrusion),
 }
 
 impl SetUp {
@@ -41,6 +59,7 @@ impl SetUp {
         match self {
             SetUp::ConfinedShear(s) => s,
             SetUp::Couette(c) => c,
+            SetUp::Extrusion(e) => e,
         }
     }
 }
@@ -60,5 +79,9 @@ impl Confinement for SetUp {
 
     fn shear_rate(&self) -> f64 {
         self.inner().shear_rate()
+    }
+
+    fn boundary(&self) -> Boundary {
+        self.inner().boundary()
     }
 }

@@ -76,6 +76,11 @@ pub enum OutcomeKind {
     Jammed,
     /// A particle penetrates a wall.
     WallContact,
+    /// A particle touches a free surface (extrusion).
+    SurfaceContact,
+    /// The particle reached the outflow of the extrudate (extrusion): its trajectory is the
+    /// result.
+    Exited,
     /// Couette: the particle moved by at least [`MIGRATION_MIN`] in r*.
     Migrated,
     /// Steady without a chain, a Couette particle that stayed and rotates steadily, or a finished
@@ -96,6 +101,8 @@ impl OutcomeKind {
             OutcomeKind::Pass => "pass",
             OutcomeKind::Jammed => "jammed",
             OutcomeKind::WallContact => "wall_contact",
+            OutcomeKind::SurfaceContact => "surface_contact",
+            OutcomeKind::Exited => "exited",
             OutcomeKind::Migrated => "migrated",
             OutcomeKind::Steady => "steady",
             OutcomeKind::Diverged => "diverged",
@@ -216,6 +223,8 @@ impl Classifier {
         let kind = match contact {
             Contact::Overlap { .. } => OutcomeKind::Jammed,
             Contact::Wall { .. } => OutcomeKind::WallContact,
+            Contact::Surface { .. } => OutcomeKind::SurfaceContact,
+            Contact::Outflow { .. } => OutcomeKind::Exited,
         };
         let mut outcome = self.outcome(kind, t, None);
         outcome.final_state["contact"] = json!(format!("{contact} at the predicted positions"));
@@ -257,6 +266,8 @@ impl Classifier {
                 }
             }
             Geometry::CylinderChannel { .. } => OutcomeKind::Steady,
+            // the end time came before the particle reached the outflow
+            Geometry::Extrusion { .. } => OutcomeKind::Timeout,
             Geometry::ConfinedShear { .. } => {
                 let held = self
                     .chained_since
@@ -292,6 +303,10 @@ impl Classifier {
                 let r = p.x.hypot(p.y);
                 r - a < r1 - slack || r + a > r2 + slack
             }),
+            // the die wall above, the symmetry line below
+            Geometry::Extrusion { h0, .. } => ps
+                .iter()
+                .any(|p| (p.x <= 0.0 && p.y + a > h0 + slack) || p.y - a < -slack),
             Geometry::CylinderChannel { .. } => false,
         };
         if wall {

@@ -141,6 +141,18 @@ pub enum Contact {
         /// Surface gap to the nearest wall.
         gap: f64,
     },
+    /// A particle touches a free surface (extrusion, thesis §6.5).
+    Surface {
+        /// Particle.
+        i: usize,
+        /// Gap to the surface (from the centre to the nearest surface point, less the radius).
+        gap: f64,
+    },
+    /// A particle reached the outflow of an open domain (extrusion): its run is over.
+    Outflow {
+        /// Particle.
+        i: usize,
+    },
 }
 
 impl std::fmt::Display for Contact {
@@ -152,6 +164,13 @@ impl std::fmt::Display for Contact {
             Contact::Wall { i, gap } => {
                 write!(f, "particle {i} in contact with a wall (gap {gap:.3e})")
             }
+            Contact::Surface { i, gap } => {
+                write!(
+                    f,
+                    "particle {i} in contact with the free surface (gap {gap:.3e})"
+                )
+            }
+            Contact::Outflow { i } => write!(f, "particle {i} reached the outflow"),
         }
     }
 }

@@ -80,6 +80,12 @@ impl Simulation {
                 ))
             }
             Geometry::ConfinedShear { .. } | Geometry::Couette { .. } => Ok(()),
+            Geometry::Extrusion { .. } if case.radius().is_none() => Err(
+                "an extrusion without particles is the extrudate swell: `xpflow validate \
+                 extrudate-swell`"
+                    .into(),
+            ),
+            Geometry::Extrusion { .. } => Ok(()),
             Geometry::CylinderChannel { .. } => Err(
                 "the cylinder-channel benchmark runs with `xpflow validate cylinder`, not as a case"
                     .into(),
@@ -112,6 +118,9 @@ impl Simulation {
                 geometry: CouetteGeometry::new(r1, r2, omega_inner)?,
                 frame: frame.spin(),
             })),
+            Geometry::Extrusion { .. } => Ok(SetUp::Extrusion(
+                case.extrusion().expect("an extrusion geometry"),
+            )),
             Geometry::CylinderChannel { .. } => {
                 Err(SetupError::Unsupported(Self::supports(case).unwrap_err()))
             }

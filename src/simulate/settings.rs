@@ -13,11 +13,12 @@ use crate::config::{
 use crate::observe::outcome::STEADY_OMEGA_RATE;
 use crate::particles::CONTACT_OVERLAP;
 use crate::solver::ale::Remap;
-use crate::solver::constitutive::{SupgVelocity, GHOST_PENALTY};
+use crate::solver::constitutive::SupgVelocity;
 use crate::solver::constitutive_projection::PROJECTION_GHOST_PENALTY;
 use crate::solver::constitutive_stress::Coupling;
 use crate::solver::cutcells::Discretization;
 use crate::solver::flow::FLOW_GHOST_PENALTY;
+use crate::solver::free_surface::SURFACE_STRESS_GHOST_PENALTY;
 use crate::solver::moving::step_count;
 use crate::solver::multiplier::{RigidCondition, MIN_RING_NODES, RING_SPACING};
 use crate::solver::rigid::FICTITIOUS_DOMAIN_PENALTY;
@@ -199,13 +200,16 @@ pub fn fluid_params(case: &CaseSpec) -> ViscoelasticParams {
     let (dt, t_end) = (case.numerics.dt.initial(), case.numerics.t_end);
     if lambda == 0.0 {
         let mut params = ViscoelasticParams::newtonian(eta_s + eta_p, dt, t_end);
-        params.factorization = case.numerics.factorization;
+        params.factorization = factorization(case);
         params.rigid_condition = case.numerics.rigid_condition;
         return params;
     }
     let mut params = ViscoelasticParams::new(eta_s, eta_p, lambda, case.fluid.alpha, dt, t_end);
-    params.factorization = case.numerics.factorization;
+    params.factorization = factorization(case);
     params.rigid_condition = case.numerics.rigid_condition;
+    if case.extrusion().is_some() {
+        params.stress_ghost_penalty = SURFACE_STRESS_GHOST_PENALTY;
+    }
     if case.numerics.dt.adaptive().is_some() {
         // the SUPG τ of the initial step throughout: the spatial discretization stays put
         params.supg = SupgVelocity::LocalAt(dt);
@@ -226,6 +230,17 @@ pub fn fluid_params(case: &CaseSpec) -> ViscoelasticParams {
         StressCoupling::SemiImplicit => params.coupling = Coupling::SemiImplicit,
     }
     params
+}
+
+/// How a case's changed flow matrix is factored: `numerics.factorization`, except with a free
+/// surface, whose cut rows change every step outside any band around the particles (the whole
+/// matrix then).
+fn factorization(case: &CaseSpec) -> Factorization {
+    if case.extrusion().is_some() {
+        Factorization::Whole
+    } else {
+        case.numerics.factorization
+    }
 }
 
 impl Settings {
@@ -305,7 +320,7 @@ impl Settings {
                 factorization: if lu || multiplier {
                     Factorization::Whole
                 } else {
-                    n.factorization
+                    factorization(case)
                 },
                 rigid_condition: match (multiplier, xfem) {
                     (true, _) => format!(
@@ -320,7 +335,7 @@ impl Settings {
                     ),
                 },
                 ghost_penalty: ghost(FLOW_GHOST_PENALTY),
-                stress_ghost_penalty: ghost(GHOST_PENALTY),
+                stress_ghost_penalty: ghost(params.stress_ghost_penalty),
                 projection_ghost_penalty: ghost(PROJECTION_GHOST_PENALTY),
             },
             cut: xfem.then_some(CutSettings {

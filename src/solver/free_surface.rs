@@ -26,8 +26,16 @@ use crate::xfem::LevelSet;
 /// slivers above (area ratio ~1e-9) are below the cut rule's discard ratio (1e-6).
 pub const DIE_OFFSET: f64 = 1e-9;
 
+/// Ghost-penalty factor of the stress transport in a flow with a free surface, 10× the particles'
+/// default ([`GHOST_PENALTY`](crate::solver::constitutive::GHOST_PENALTY)): in the UCM extrudate
+/// swell on h = 0.0125 with 1e-3 the extension values of s in the slivers cut near the pinned
+/// die-exit corner grew without bound at De ≥ 0.6 (|s| 16 at t = 0.45, blow-up at t ≈ 0.5 with
+/// Δt = 0.05 and 0.01 alike); 1e-2 keeps them bounded. It lowers the swell at h = 0.1, De = 0.5
+/// by 1.4e-3 (docs/validation.md, "Free surface: UCM extrudate swell").
+pub const SURFACE_STRESS_GHOST_PENALTY: f64 = 1e-2;
+
 /// The height of the free surface on its line mesh.
-#[derive(Debug, Clone)]
+#[derive(Debug, Clone, PartialEq, serde::Serialize, serde::Deserialize)]
 pub struct HeightFunction {
     /// Node coordinates x_0 = 0 (die exit) < x_1 < … (extrudate).
     x: Vec<f64>,
@@ -227,6 +235,52 @@ impl LevelSet for SurfaceLevelSet<'_> {
     }
 }
 
+/// The vertical stretch of [`stretch_map`] as a mesh displacement at the vertices of `mesh` (in
+/// vertex order): the vertex (x, y) of the configuration below `old` moves to where the stretch
+/// onto `new` takes it, d = (0, y′ − y). The background of the particles' temporary ALE map when
+/// a flow has both (`TemporaryAle::background`).
+pub fn stretch_displacement(
+    mesh: &Mesh,
+    top: f64,
+    new: &HeightFunction,
+    old: &HeightFunction,
+) -> Vec<[f64; 2]> {
+    mesh.node_of_vertex
+        .iter()
+        .map(|&k| {
+            let [x, y] = mesh.nodes[k];
+            let (to, from) = (new.at(x), old.at(x));
+            let moved = if y <= from {
+                y * to / from
+            } else {
+                to + (y - from) * (top - to) / (top - from)
+            };
+            [0.0, moved - y]
+        })
+        .collect()
+}
+
+/// The gap between a particle (centre `c`, radius `a`) and the surface: the distance from the
+/// centre to the nearest point of the P1 surface less the radius (upstream of the die exit the
+/// surface is the die wall's level H0, which the set-up's contact test covers).
+pub fn surface_gap(surface: &HeightFunction, c: [f64; 2], a: f64) -> f64 {
+    let (x, h) = (surface.nodes(), surface.heights());
+    let mut distance = f64::INFINITY;
+    for i in 0..x.len() - 1 {
+        // segments beyond the reach of the particle cannot be the nearest
+        if x[i + 1] < c[0] - 2.0 * a - (h[i + 1] - c[1]).abs()
+            || x[i] > c[0] + 2.0 * a + (h[i] - c[1]).abs()
+        {
+            continue;
+        }
+        let (dx, dh) = (x[i + 1] - x[i], h[i + 1] - h[i]);
+        let s = (((c[0] - x[i]) * dx + (c[1] - h[i]) * dh) / (dx * dx + dh * dh)).clamp(0.0, 1.0);
+        let p = [x[i] + s * dx, h[i] + s * dh];
+        distance = distance.min((c[0] - p[0]).hypot(c[1] - p[1]));
+    }
+    distance - a
+}
+
 /// The temporary ALE map of a free surface (thesis §6.3.3) carrying the history from the fluid
 /// below `old` (the predicted surface Ĥⁿ of the last step, the domain of sⁿ) to the fluid below
 /// `new` (Ĥⁿ⁺¹), and, with `older` (Ĥⁿ⁻¹) and a BDF2 step, the second pre-image of Eq. 5.43. The
@@ -316,6 +370,39 @@ mod tests {
             assert!((h - (1.0 + 0.1 * xi)).abs() < 1e-9, "H({xi}) = {h}");
         }
         assert_eq!(s.heights()[0], 1.0, "pinned at the die exit");
+    }
+
+    /// The stretch as a vertex displacement: the old surface's points land on the new surface,
+    /// the symmetry line, the mesh top and the die stay; the gap of a particle to a surface.
+    #[test]
+    fn the_stretch_moves_the_surface_onto_the_new_one_and_the_gap_is_the_distance() {
+        let mesh = Mesh::rectangle(
+            crate::mesh::Axis::uniform(-1.0, 2.0, 6),
+            crate::mesh::Axis::uniform(0.0, 2.0, 8),
+            false,
+        );
+        let xs: Vec<f64> = (2..=12).map(|i| mesh.ax.q2_coord(i)).collect();
+        let old = HeightFunction::flat(xs.clone(), 1.0);
+        let mut new = old.clone();
+        new.h = xs.iter().map(|x| 1.0 + 0.1 * x).collect();
+        let d = stretch_displacement(&mesh, 2.0, &new, &old);
+        for (v, &k) in mesh.node_of_vertex.iter().enumerate() {
+            let [x, y] = mesh.nodes[k];
+            assert_eq!(d[v][0], 0.0);
+            let want = if (y - 1.0).abs() < 1e-12 {
+                new.at(x) - 1.0
+            } else if y == 0.0 || y == 2.0 || x <= 0.0 {
+                0.0
+            } else {
+                d[v][1]
+            };
+            assert!((d[v][1] - want).abs() < TOL, "({x}, {y}): {:?}", d[v]);
+        }
+        // a flat surface at 1: the gap from below and the corner of a slope
+        assert!((surface_gap(&old, [1.0, 0.8], 0.1) - 0.1).abs() < TOL);
+        let g = surface_gap(&new, [1.0, 0.8], 0.1);
+        let exact = (1.1 - 0.8) / 0.1f64.hypot(1.0) - 0.1;
+        assert!((g - exact).abs() < TOL, "{g} against {exact}");
     }
 
     /// The level set: the surface's sign, 1-Lipschitz, and the die wall's level just above H0.

@@ -52,12 +52,14 @@ const TEXT_COLUMNS: [&str; 7] = [
 const STATUSES: [&str; 4] = ["pending", "running", "done", "failed"];
 
 /// Outcome kinds (the `kind` column).
-const KINDS: [&str; 9] = [
+const KINDS: [&str; 11] = [
     "string",
     "repel",
     "pass",
     "jammed",
     "wall_contact",
+    "surface_contact",
+    "exited",
     "migrated",
     "steady",
     "diverged",

@@ -4,7 +4,7 @@
 //! `steps`, `t_reached`, `run_id`. Views: `case_outcomes`, `string_formation`.
 
 /// Bumped whenever the schema changes; an older database is migrated by [`MIGRATIONS`].
-pub const SCHEMA_VERSION: i64 = 3;
+pub const SCHEMA_VERSION: i64 = 4;
 
 /// Statements creating the current version from nothing (all idempotent).
 pub const CREATE: &str = r#"
@@ -62,8 +62,9 @@ CREATE TABLE IF NOT EXISTS samples (
 ) WITHOUT ROWID;
 CREATE TABLE IF NOT EXISTS outcomes (
     case_id INTEGER PRIMARY KEY REFERENCES cases(id),
-    kind TEXT NOT NULL CHECK (kind IN ('string', 'repel', 'pass', 'jammed', 'wall_contact', 'migrated',
-                                        'steady', 'diverged', 'timeout')),
+    kind TEXT NOT NULL CHECK (kind IN ('string', 'repel', 'pass', 'jammed', 'wall_contact',
+                                        'surface_contact', 'exited', 'migrated', 'steady',
+                                        'diverged', 'timeout')),
     string_length INTEGER, t_decided REAL, mean_gap REAL, final_json TEXT NOT NULL
 );
 CREATE TABLE IF NOT EXISTS snapshots (
@@ -91,5 +92,33 @@ CREATE VIEW IF NOT EXISTS string_formation AS
 /// Migrations from version i to i + 1, applied in order after [`CREATE`]. 1 → 2:
 /// `cases.settings_json`, the resolved numerical settings a case ran with (`simulate::Settings`;
 /// the code version is the run's). 2 → 3: `merged_shards`, the shards `xpflow merge` folded in
-/// (made by [`CREATE`], which runs first).
-pub const MIGRATIONS: &[&str] = &["ALTER TABLE cases ADD COLUMN settings_json TEXT;", ""];
+/// (made by [`CREATE`], which runs first). 3 → 4: the outcome kinds of an extrusion
+/// (`surface_contact`, `exited`) in `outcomes.kind`'s check: SQLite cannot alter a check, so the
+/// table is copied into a new one (the views that read it dropped and made again).
+pub const MIGRATIONS: &[&str] = &[
+    "ALTER TABLE cases ADD COLUMN settings_json TEXT;",
+    "",
+    r#"
+DROP VIEW IF EXISTS case_outcomes;
+DROP VIEW IF EXISTS string_formation;
+CREATE TABLE outcomes_v4 (
+    case_id INTEGER PRIMARY KEY REFERENCES cases(id),
+    kind TEXT NOT NULL CHECK (kind IN ('string', 'repel', 'pass', 'jammed', 'wall_contact',
+                                        'surface_contact', 'exited', 'migrated', 'steady',
+                                        'diverged', 'timeout')),
+    string_length INTEGER, t_decided REAL, mean_gap REAL, final_json TEXT NOT NULL
+);
+INSERT INTO outcomes_v4 SELECT case_id, kind, string_length, t_decided, mean_gap, final_json
+    FROM outcomes;
+DROP TABLE outcomes;
+ALTER TABLE outcomes_v4 RENAME TO outcomes;
+CREATE VIEW case_outcomes AS
+    SELECT c.*, o.kind, o.string_length, o.t_decided, o.mean_gap, o.final_json
+    FROM cases c LEFT JOIN outcomes o ON o.case_id = c.id;
+CREATE VIEW string_formation AS
+    SELECT c.wi, c.n_particles, c.alpha, c.beta, c.delta,
+           MAX(o.kind = 'string') AS formed, COUNT(*) AS cases
+    FROM cases c JOIN outcomes o ON o.case_id = c.id
+    GROUP BY c.wi, c.n_particles, c.alpha, c.beta, c.delta;
+"#,
+];

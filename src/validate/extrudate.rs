@@ -20,7 +20,7 @@ use crate::solver::constitutive_projection::sym_at;
 use crate::solver::constitutive_stress::Coupling;
 use crate::solver::cutcells::{surface_cuts, CutError};
 use crate::solver::flow::FlowFactorization;
-use crate::solver::free_surface::{stretch_map, HeightFunction};
+use crate::solver::free_surface::{stretch_map, HeightFunction, SURFACE_STRESS_GHOST_PENALTY};
 use crate::solver::viscoelastic::{
     HistoryMap, ViscoelasticError, ViscoelasticFlow, ViscoelasticParams,
 };
@@ -63,13 +63,6 @@ pub const VISCOELASTIC_SWELL_TOL: f64 = 5e-3;
 /// prints three decimals (±5e-4) and its coarsest mesh (M1) is 1e-3 off; the first-order
 /// extrapolation of a corner-singular solution adds its own error of that order.
 pub const SWELL_TOL: f64 = 1.5e-3;
-
-/// Ghost-penalty factor of the stress transport in the UCM runs, 10× the particles' default
-/// ([`GHOST_PENALTY`](crate::solver::constitutive::GHOST_PENALTY)): with 1e-3 the extension values
-/// of s in the slivers cut near the pinned die-exit corner grew without bound on h = 0.0125 at
-/// De ≥ 0.6 (|s| 16 at t = 0.45, blow-up at t ≈ 0.5 with Δt = 0.05 and 0.01 alike); 1e-2 keeps
-/// them bounded. It lowers the swell at h = 0.1, De = 0.5 by 1.4e-3 (docs/validation.md).
-pub const SWELL_STRESS_GHOST_PENALTY: f64 = 1e-2;
 
 /// The time step of the study and the longest time it runs (the surface is steady by t ≈ 6).
 pub const SWELL_DT: f64 = 0.05;
@@ -238,7 +231,7 @@ pub fn swell(grid: SwellMesh, de: f64, dt: f64, t_max: f64) -> Result<SwellRun, 
     let mut params = if de > 0.0 {
         let mut p = ViscoelasticParams::new(0.0, 1.0, lambda, 0.0, dt, t_max);
         p.coupling = Coupling::SemiImplicit;
-        p.stress_ghost_penalty = SWELL_STRESS_GHOST_PENALTY;
+        p.stress_ghost_penalty = SURFACE_STRESS_GHOST_PENALTY;
         p
     } else {
         ViscoelasticParams::newtonian(1.0, dt, t_max)

@@ -465,7 +465,8 @@ pub fn cylinder_drag_viscoelastic(
     let mut params = ViscoelasticParams::new(0.59, 0.41, wi, 0.0, dt, t_max);
     params.rigid_condition = condition;
     let mut flow = ViscoelasticFlow::with_particles(mesh, params, particles, cuts)?;
-    crate::solver::moving::apply_walls(&CylinderChannel::BENCHMARK, &mut flow);
+    crate::solver::moving::apply_walls(&CylinderChannel::BENCHMARK, &mut flow)
+        .expect("walls alone cannot fail");
     flow.set_flow_rate(CylinderChannel::BENCHMARK.flow_rate())?;
     let mut history = Vec::new();
     let t0 = std::time::Instant::now();

@@ -1,6 +1,8 @@
 //! The mesh displacement of the temporary ALE map (thesis Eqs. 5.35–5.38): −∇²d_m = 0 on the
 //! whole mesh, d_m = 0 on the walls, periodic with the mesh, d_m = X̂ⁿ⁺¹ − X̂ⁿ on a rigid patch of
-//! each particle; one Q1 Laplace matrix for both components.
+//! each particle; one Q1 Laplace matrix for both components. With a background displacement (a
+//! free surface's stretch, `TemporaryAle::background`) the harmonic part carries what the
+//! background leaves: d_m = background + harmonic.
 
 use super::locate::nearest_image;
 use super::{AleError, RigidMove, TemporaryAle};
@@ -23,7 +25,27 @@ impl TemporaryAle {
         period: Option<f64>,
     ) -> Result<Vec<[f64; 2]>, AleError> {
         let nv = mesh.n_vertices();
-        if moves.iter().all(|m| m.displacement == [0.0, 0.0]) {
+        let background = self.background.take();
+        if let Some(b) = &background {
+            assert_eq!(b.len(), nv, "one background displacement per vertex");
+        }
+        let d = self.harmonic(mesh, moves, period, background.as_deref());
+        self.background = background;
+        d
+    }
+
+    /// The harmonic part of the displacement: rigid moves less `background` on the patches, zero
+    /// on the walls; the background added.
+    fn harmonic(
+        &mut self,
+        mesh: &Mesh,
+        moves: &[RigidMove],
+        period: Option<f64>,
+        background: Option<&[[f64; 2]]>,
+    ) -> Result<Vec<[f64; 2]>, AleError> {
+        let nv = mesh.n_vertices();
+        let bg = |v: usize| background.map_or([0.0; 2], |b| b[v]);
+        if moves.iter().all(|m| m.displacement == [0.0, 0.0]) && background.is_none() {
             return Ok(vec![[0.0; 2]; nv]);
         }
         if (&mesh.ax, &mesh.ay) != (&self.k_axes.0, &self.k_axes.1) {
@@ -55,7 +77,7 @@ impl TemporaryAle {
                 if self.wall[v] {
                     Some([0.0; 2])
                 } else {
-                    claim[v].map(|c| c.1)
+                    claim[v].map(|(_, m)| [m[0] - bg(v)[0], m[1] - bg(v)[1]])
                 }
             })
             .collect();
@@ -107,6 +129,12 @@ impl TemporaryAle {
         for (c, r) in rhs.iter().enumerate() {
             solver.solve_checked(&self.matrix, r, &mut sol, LAPLACE_RESIDUAL_TOL)?;
             d.iter_mut().zip(&sol).for_each(|(d, s)| d[c] = *s);
+        }
+        if let Some(b) = background {
+            d.iter_mut().zip(b).for_each(|(d, b)| {
+                d[0] += b[0];
+                d[1] += b[1];
+            });
         }
         if let Some(vertex) = d
             .iter()

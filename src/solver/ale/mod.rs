@@ -117,6 +117,12 @@ pub struct TemporaryAle {
     pub remap: Remap,
     /// Where each node of the mesh lies in it, kept while the mesh stays.
     homes: Option<NodeHomes>,
+    /// A displacement of the vertices that the next steps add to the particles' (a free
+    /// surface's stretch, `free_surface::stretch_displacement`; `None`: none): the Laplace
+    /// solution then carries the particles' rigid moves less the background on their patches
+    /// and zero on the walls, so that the patches still move rigidly in the sum and the walls by
+    /// the background.
+    pub background: Option<Vec<[f64; 2]>>,
 }
 
 /// Where each node of the mesh with these axes lies in it ([`Mesh::locate`]: element and ξ): the
@@ -162,6 +168,7 @@ impl TemporaryAle {
             previous_axes: None,
             remap: Remap::default(),
             homes: None,
+            background: None,
         }
     }
 

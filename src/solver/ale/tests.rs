@@ -497,3 +497,67 @@ fn mesh_velocity_of_a_steadily_moving_particle() {
         }
     }
 }
+
+/// With a background displacement (a free surface's stretch) the rigid patch still moves by the
+/// particle's displacement exactly, the walls by the background, and without particle motion the
+/// map is the background itself.
+#[test]
+fn a_background_displacement_leaves_the_patches_rigid() {
+    let mesh = Mesh::rectangle(
+        Axis::uniform(-1.0, 1.0, 20),
+        Axis::uniform(0.0, 1.0, 10),
+        false,
+    );
+    // a smooth background vanishing nowhere in particular (on the walls too)
+    let bg: Vec<[f64; 2]> = mesh
+        .node_of_vertex
+        .iter()
+        .map(|&k| {
+            let [x, y] = mesh.nodes[k];
+            [0.0, 0.01 * y * (1.0 + x)]
+        })
+        .collect();
+    let mut ale = TemporaryAle::new(&mesh);
+    ale.background = Some(bg.clone());
+    let moves = vec![RigidMove {
+        center: [0.0, 0.5],
+        radius: 0.15,
+        displacement: [0.02, -0.01],
+    }];
+    let d = ale.displacement(&mesh, &moves, None).unwrap();
+    let mut patch = 0;
+    for (v, &k) in mesh.node_of_vertex.iter().enumerate() {
+        let [x, y] = mesh.nodes[k];
+        let wall = x.abs() > 1.0 - 1e-12 || !(1e-12..=1.0 - 1e-12).contains(&y);
+        if wall {
+            assert!(
+                (d[v][0] - bg[v][0]).abs() < SOLVE_TOL && (d[v][1] - bg[v][1]).abs() < SOLVE_TOL,
+                "wall vertex {v}: {:?} against {:?}",
+                d[v],
+                bg[v]
+            );
+        }
+        // every vertex within the radius is on the patch
+        if x.hypot(y - 0.5) < 0.15 {
+            patch += 1;
+            assert!(
+                (d[v][0] - 0.02).abs() < SOLVE_TOL && (d[v][1] + 0.01).abs() < SOLVE_TOL,
+                "patch vertex {v}: {:?}",
+                d[v]
+            );
+        }
+    }
+    assert!(patch > 0);
+    let still = vec![RigidMove {
+        displacement: [0.0, 0.0],
+        ..moves[0]
+    }];
+    ale.background = Some(bg.clone());
+    let d = ale.displacement(&mesh, &[], None).unwrap();
+    assert_eq!(d, bg, "no particles: the background");
+    let d = ale.displacement(&mesh, &still, None).unwrap();
+    assert!(
+        d.iter().zip(&bg).any(|(a, b)| a != b),
+        "a still patch holds its vertices"
+    );
+}

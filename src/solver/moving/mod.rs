@@ -8,23 +8,33 @@
 //! Eqs. 5.54–5.56) → observe (contact; divergence is a non-finite correction, the steady rotation of §5.7.2 is
 //! decided by `observe::outcome`).
 //!
-//! The confinement (walls, period, contact) is a [`Confinement`] of `crate::geometry`. A fluid
+//! The confinement (walls, period, contact) is a [`Confinement`] of `crate::geometry`. An
+//! extrusion ([`Boundary::Extrusion`]) adds a free surface, moved with the particles in the same
+//! step (thesis §6.3.4, `surface`): predicted with them, the background of their ALE map, a bound
+//! of the cut cells, advanced by the kinematic equation after the stress. A fluid
 //! without polymer (η_p = 0) runs the same pipeline without the ALE map and the stress solve:
 //! quasi-static Stokes motion, the flow pattern and its symbolic factorization kept across steps.
 
+mod surface;
+
 use std::time::Instant;
 
+use crate::geometry::Boundary;
 pub use crate::geometry::Confinement;
 pub use crate::mesh::follow::FollowingMesh;
 use crate::mesh::{Axis, Mesh, Side};
 use crate::particles::{correct, deviation, extrapolate, Contact, RigidState, CONTACT_OVERLAP};
 use crate::solver::ale::{AleError, AleMap, Remap, RigidMove, TemporaryAle};
-use crate::solver::cutcells::{compute_cuts, CutError, Discretization};
+use crate::solver::cutcells::{compute_cuts_bounded, CutError, Discretization};
+use crate::solver::free_surface::HeightFunction;
 use crate::solver::rigid::{ElementCut, Motion, Particle};
 use crate::solver::viscoelastic::{
     FlowSolution, FlowState, HistoryMap, StepReport, ViscoelasticError, ViscoelasticFlow,
     ViscoelasticParams,
 };
+use crate::xfem::LevelSet;
+pub use surface::SurfaceCheckpoint;
+use surface::{apply_extrusion, Surface};
 
 /// Steps of size `dt` to reach `t_end` (the end time counts as reached within round-off of
 /// t_end/dt).
@@ -33,13 +43,23 @@ pub fn step_count(t_end: f64, dt: f64) -> usize {
 }
 
 /// Prescribes the confinement's wall velocities on the flow's bottom and top sides and pins the
-/// pressure (every confinement encloses its flow).
-pub fn apply_walls<D: Confinement + Clone + 'static>(domain: &D, flow: &mut ViscoelasticFlow) {
+/// pressure ([`Boundary::Walls`]: the flow is enclosed), or the die's conditions of an extrusion.
+///
+/// # Errors
+/// [`ViscoelasticError::Stress`] if an extrusion's initial conformation cannot be projected.
+pub fn apply_walls<D: Confinement + Clone + 'static>(
+    domain: &D,
+    flow: &mut ViscoelasticFlow,
+) -> Result<(), ViscoelasticError> {
+    if let Boundary::Extrusion(e) = domain.boundary() {
+        return apply_extrusion(e, flow);
+    }
     for side in [Side::Bottom, Side::Top] {
         let d = domain.clone();
         flow.set_velocity(side, move |x| d.wall_velocity(side, x));
     }
     flow.pin_pressure();
+    Ok(())
 }
 
 /// Why a run stopped.
@@ -166,6 +186,9 @@ pub struct MovingCheckpoint {
     pub fields_at: Vec<[f64; 2]>,
     /// The ALE mesh displacement of the last step (BDF2 mesh velocity).
     pub ale_displacement: Option<Vec<[f64; 2]>>,
+    /// The free surface (extrusion; absent otherwise).
+    #[serde(default, skip_serializing_if = "Option::is_none")]
+    pub surface: Option<SurfaceCheckpoint>,
     /// The vertex coordinates along x and y of the mesh that displacement was solved on, when
     /// the mesh follows the particles (absent in checkpoints of fixed-mesh runs).
     #[serde(default, skip_serializing_if = "Option::is_none")]
@@ -191,6 +214,8 @@ pub struct MovingParticles<D: Confinement> {
     fields_at: Vec<[f64; 2]>,
     /// The mesh that follows the particles (`None`: fixed mesh).
     follow: Option<FollowingMesh>,
+    /// The free surface of an extrusion (`None`: walls only).
+    surface: Option<Surface>,
 }
 
 impl<D: Confinement + Clone + 'static> MovingParticles<D> {
@@ -229,12 +254,23 @@ impl<D: Confinement + Clone + 'static> MovingParticles<D> {
                 motion.len()
             )));
         }
+        let surface = match domain.boundary() {
+            Boundary::Extrusion(e) => Some(Surface::new(&mesh, e)?),
+            Boundary::Walls => None,
+        };
         let particles = make_particles(&domain, &x0, &radius, &motion);
-        let cuts = compute_cuts(&mesh, &particles, domain.period(), method)
-            .map_err(|source| MovingError::Cut { step: 0, source })?;
+        let bound = surface.as_ref().map(|s| s.level_set(s.fields_at()));
+        let cuts = compute_cuts_bounded(
+            &mesh,
+            &particles,
+            domain.period(),
+            method,
+            bound.as_ref().map(|b| b as &dyn LevelSet),
+        )
+        .map_err(|source| MovingError::Cut { step: 0, source })?;
         let ale = TemporaryAle::new(&mesh);
         let mut flow = ViscoelasticFlow::with_particles(mesh, params, particles, cuts)?;
-        apply_walls(&domain, &mut flow);
+        apply_walls(&domain, &mut flow)?;
         flow.start(&|_| [0.0, 0.0])?;
         let mut cur = RigidState::at_rest(x0.clone());
         set_velocities(&mut cur, flow.rigid_velocities());
@@ -252,6 +288,7 @@ impl<D: Confinement + Clone + 'static> MovingParticles<D> {
             prev: None,
             fields_at: x0,
             follow,
+            surface,
         })
     }
 
@@ -290,15 +327,20 @@ impl<D: Confinement + Clone + 'static> MovingParticles<D> {
         let t_step = Instant::now();
         let step = self.flow.history().steps() + 1;
         let (expected, x_pred) = self.predict();
-        if let Some(c) = self.domain.contact(&x_pred, &self.radius, self.min_gap()) {
+        let dt_prev = self.last_dt();
+        let surface = self
+            .surface
+            .as_ref()
+            .map(|s| s.predicted(self.dt(), dt_prev));
+        if let Some(c) = self.contact(&x_pred, surface.as_ref()) {
             return Ok(StepOutcome::Contact(c));
         }
         let t0 = Instant::now();
-        let (onto, map) = self.ale_map(&x_pred, step)?;
+        let (onto, map) = self.ale_map(&x_pred, surface.as_ref(), step)?;
         let mut ale = t0.elapsed().as_secs_f64();
         let t0 = Instant::now();
         let target = onto.as_ref().unwrap_or(self.flow.mesh());
-        let (particles, cuts) = self.classify(target, &x_pred, step)?;
+        let (particles, cuts) = self.classify(target, &x_pred, surface.as_ref(), step)?;
         let classify = t0.elapsed().as_secs_f64();
         let t0 = Instant::now();
         let history = map.as_ref().map(|m| HistoryMap {
@@ -311,6 +353,9 @@ impl<D: Confinement + Clone + 'static> MovingParticles<D> {
         ale += t0.elapsed().as_secs_f64();
         let solution = self.solve_flow()?;
         let mut report = self.solve_stress(solution)?;
+        if let Some(predicted) = surface {
+            self.advance_surface(predicted, dt_prev, step)?;
+        }
         self.correct(x_pred, step)?;
         report.deviation = expected.map(|e| deviation(&self.cur, &e, &self.radius));
         report.timings.ale = ale;
@@ -334,8 +379,22 @@ impl<D: Confinement + Clone + 'static> MovingParticles<D> {
 
     /// ω = Δtₙ/Δtₙ₋₁ of the coming step (1 before the first step or when the last is unknown).
     fn step_ratio(&self) -> f64 {
-        let dt = self.dt();
-        dt / self.flow.history().last_dt().unwrap_or(dt)
+        self.dt() / self.last_dt()
+    }
+
+    /// Δt of the last step (that of the coming one before the first).
+    fn last_dt(&self) -> f64 {
+        self.flow.history().last_dt().unwrap_or(self.dt())
+    }
+
+    /// A contact of the particles at `x` with each other, the set-up's walls or the free
+    /// `surface` (predicted with them).
+    fn contact(&self, x: &[[f64; 2]], surface: Option<&HeightFunction>) -> Option<Contact> {
+        let min_gap = self.min_gap();
+        self.domain.contact(x, &self.radius, min_gap).or_else(|| {
+            let (s, at) = (self.surface.as_ref()?, surface?);
+            s.contact(at, x, &self.radius, min_gap)
+        })
     }
 
     /// Δt of the coming step.
@@ -360,6 +419,7 @@ impl<D: Confinement + Clone + 'static> MovingParticles<D> {
     fn ale_map(
         &mut self,
         x_pred: &[[f64; 2]],
+        surface: Option<&HeightFunction>,
         step: usize,
     ) -> Result<(Option<Mesh>, Option<AleMap>), MovingError> {
         let onto = match &self.follow {
@@ -385,6 +445,12 @@ impl<D: Confinement + Clone + 'static> MovingParticles<D> {
             .collect();
         let bdf = self.flow.history().bdf2(self.dt());
         let target = onto.as_ref().unwrap_or(self.flow.mesh());
+        // the surface's stretch under the particles' moves (onto a fixed mesh: no follow)
+        self.ale.background = self
+            .surface
+            .as_ref()
+            .zip(surface)
+            .map(|(s, at)| s.background(self.flow.mesh(), at));
         let map = self
             .ale
             .advance_onto(
@@ -399,17 +465,54 @@ impl<D: Confinement + Clone + 'static> MovingParticles<D> {
         Ok((onto, Some(map)))
     }
 
-    /// Step 3, classify: the particles at X̂ⁿ⁺¹ and their cut cells on `mesh`.
+    /// Step 3, classify: the particles at X̂ⁿ⁺¹ and their cut cells on `mesh`, in the fluid
+    /// below the predicted `surface` if there is one.
     fn classify(
         &self,
         mesh: &Mesh,
         x_pred: &[[f64; 2]],
+        surface: Option<&HeightFunction>,
         step: usize,
     ) -> Result<(Vec<Particle>, Vec<ElementCut>), MovingError> {
         let particles = make_particles(&self.domain, x_pred, &self.radius, &self.motion);
-        let cuts = compute_cuts(mesh, &particles, self.domain.period(), self.method)
-            .map_err(|source| MovingError::Cut { step, source })?;
+        let bound = self
+            .surface
+            .as_ref()
+            .zip(surface)
+            .map(|(s, at)| s.level_set(at));
+        let cuts = compute_cuts_bounded(
+            mesh,
+            &particles,
+            self.domain.period(),
+            self.method,
+            bound.as_ref().map(|b| b as &dyn LevelSet),
+        )
+        .map_err(|source| MovingError::Cut { step, source })?;
         Ok((particles, cuts))
+    }
+
+    /// Step 5b, advance_surface: Hⁿ⁺¹ by the kinematic equation with the new velocity on the
+    /// predicted surface (thesis §6.3.4 step 5).
+    fn advance_surface(
+        &mut self,
+        predicted: HeightFunction,
+        dt_prev: f64,
+        step: usize,
+    ) -> Result<(), MovingError> {
+        let dt = self.dt();
+        let surface = self
+            .surface
+            .as_mut()
+            .expect("a predicted surface has a surface");
+        surface.advance(
+            self.flow.mesh(),
+            self.flow.velocity(),
+            predicted,
+            dt,
+            dt_prev,
+            step,
+        )?;
+        Ok(())
     }
 
     /// Step 4, solve_flow: u, p, Uᵢ, ωᵢ at X̂ⁿ⁺¹ (Eq. 5.48).
@@ -501,6 +604,7 @@ impl<D: Confinement + Clone + 'static> MovingParticles<D> {
             prev: self.prev.clone(),
             fields_at: self.fields_at.clone(),
             ale_displacement: self.ale.last_displacement().map(<[_]>::to_vec),
+            surface: self.surface.as_ref().map(Surface::checkpoint),
             ale_axes: self
                 .follow
                 .as_ref()
@@ -527,6 +631,15 @@ impl<D: Confinement + Clone + 'static> MovingParticles<D> {
             )));
         }
         let step = cp.flow.history.steps();
+        match (self.surface.as_mut(), cp.surface) {
+            (Some(s), Some(saved)) => s.restore(saved)?,
+            (None, None) => {}
+            _ => {
+                return Err(MovingError::Setup(
+                    "the checkpoint and the case differ in having a free surface".into(),
+                ))
+            }
+        }
         let particles = make_particles(&self.domain, &cp.fields_at, &self.radius, &self.motion);
         // a mesh that follows the particles is a function of the positions the fields are at
         let mesh = match &self.follow {
@@ -537,8 +650,15 @@ impl<D: Confinement + Clone + 'static> MovingParticles<D> {
             None => None,
         };
         let on = mesh.as_ref().unwrap_or(self.flow.mesh());
-        let cuts = compute_cuts(on, &particles, self.domain.period(), self.method)
-            .map_err(|source| MovingError::Cut { step, source })?;
+        let bound = self.surface.as_ref().map(|s| s.level_set(s.fields_at()));
+        let cuts = compute_cuts_bounded(
+            on,
+            &particles,
+            self.domain.period(),
+            self.method,
+            bound.as_ref().map(|b| b as &dyn LevelSet),
+        )
+        .map_err(|source| MovingError::Cut { step, source })?;
         let ale_mesh = match (&self.follow, cp.ale_axes) {
             (Some(f), Some((ax, ay))) => {
                 let fits = (ax.len(), ay.len()) == (f.base.ax.len() + 1, f.base.ay.len() + 1);
@@ -578,6 +698,17 @@ impl<D: Confinement + Clone + 'static> MovingParticles<D> {
     /// The fluid.
     pub fn flow(&self) -> &ViscoelasticFlow {
         &self.flow
+    }
+
+    /// The free surface Hⁿ of an extrusion (`None` without one).
+    pub fn surface(&self) -> Option<&HeightFunction> {
+        self.surface.as_ref().map(Surface::height)
+    }
+
+    /// How far the free surface moved in the last step, max|Hⁿ − Hⁿ⁻¹| (`None` without one;
+    /// infinite before the first step or after a restore).
+    pub fn surface_change(&self) -> Option<f64> {
+        self.surface.as_ref().map(Surface::change)
     }
 
     /// The confinement.
