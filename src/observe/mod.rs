@@ -29,6 +29,11 @@ pub struct ParticleState {
     pub omega: f64,
     /// Rotation angle θ (clockwise positive).
     pub theta: f64,
+    /// Separation from the undisturbed steady free surface H̄, s = Y + a − H̄(X) (extrusion,
+    /// thesis Eq. 6.65: s < 0 with the particle's top below the surface, s > 0 above it; H̄ = H0
+    /// in the die); `None` without a free surface.
+    #[serde(default, skip_serializing_if = "Option::is_none")]
+    pub separation: Option<f64>,
 }
 
 /// Particle states after one time step.

@@ -429,6 +429,9 @@ impl Classifier {
                 .map(|c| layout::r_star(r1, r2, *c))
                 .collect::<Vec<_>>());
         }
+        if ps.iter().any(|p| p.separation.is_some()) {
+            final_state["separation"] = json!(ps.iter().map(|p| p.separation).collect::<Vec<_>>());
+        }
         if let Some(e) = self.last.as_ref().and_then(|s| s.gap_elements) {
             final_state["gap_elements"] = json!(e);
         }

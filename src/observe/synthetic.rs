@@ -90,6 +90,7 @@ pub fn sample(kind: OutcomeKind, spec: &CaseSpec, step: u64, t: f64) -> Sample {
                 v: 0.0,
                 omega: omega_star * rate,
                 theta: omega_star * ts,
+                separation: None,
             }
         })
         .map(|mut p| {

@@ -80,6 +80,7 @@ pub fn sample(
                     v: u[1],
                     omega: -(s.omega[i] + frame.spin()),
                     theta: -(s.theta[i] + frame.spin() * t),
+                    separation: None,
                 }
             })
             .collect(),

@@ -14,10 +14,12 @@ pub mod frame;
 pub mod run;
 pub mod settings;
 pub mod snapshot;
+pub mod undisturbed;
 
 pub use frame::Frame;
 pub use run::{CaseResult, RunStatus};
 pub use settings::Settings;
+pub use undisturbed::Undisturbed;
 
 use crate::config::{CaseSpec, Geometry};
 use crate::geometry::{ConfinedShear, CouetteError, CouetteGeometry, RotatingCouette, SetUp};
@@ -53,6 +55,10 @@ pub struct Simulation {
     radius: f64,
     /// The step controller of an adaptive step (`None`: a fixed Δt).
     control: Option<StepController>,
+    /// An extrusion case, until its undisturbed surface is known ([`Simulation::settle`]).
+    unsettled: Option<CaseSpec>,
+    /// The undisturbed steady free surface H̄ of an extrusion (separations are measured from it).
+    undisturbed: Option<Undisturbed>,
 }
 
 /// What a saved state holds: the stepper's checkpoint and, for an adaptive step, the
@@ -63,6 +69,8 @@ struct SavedRun {
     moving: MovingCheckpoint,
     #[serde(default, skip_serializing_if = "Option::is_none")]
     control: Option<StepController>,
+    #[serde(default, skip_serializing_if = "Option::is_none")]
+    undisturbed: Option<Undisturbed>,
 }
 
 impl Simulation {
@@ -161,7 +169,29 @@ impl Simulation {
                 .dt
                 .adaptive()
                 .map(|a| StepController::new(a, case.characteristic_rate())),
+            unsettled: case.extrusion().map(|_| case.clone()),
+            undisturbed: None,
         })
+    }
+
+    /// Computes what a case needs before its first sample and is not part of a step: an
+    /// extrusion's undisturbed steady surface H̄ (`undisturbed`; kept in the saved state, so a
+    /// restored case does not compute it again). Nothing for other cases.
+    ///
+    /// # Errors
+    /// [`MovingError`] if the undisturbed flow fails.
+    pub fn settle(&mut self) -> Result<(), MovingError> {
+        if let Some(case) = self.unsettled.take() {
+            if self.undisturbed.is_none() {
+                self.undisturbed = undisturbed::undisturbed_surface(&case)?;
+            }
+        }
+        Ok(())
+    }
+
+    /// The undisturbed steady surface of an extrusion, once [`settle`](Self::settle)d.
+    pub fn undisturbed(&self) -> Option<&Undisturbed> {
+        self.undisturbed.as_ref()
     }
 
     /// The resolved numerical settings.
@@ -243,13 +273,19 @@ impl Simulation {
     pub fn sample(&self) -> Sample {
         let state = self.stepper.state();
         let gap = narrowest_gap(self.stepper.flow().mesh(), &state.x, self.radius);
-        frame::sample(
+        let mut sample = frame::sample(
             self.steps(),
             self.time(),
             state,
             self.frame,
             gap.map(|g| g.elements),
-        )
+        );
+        if let Some(u) = &self.undisturbed {
+            for p in &mut sample.particles {
+                p.separation = Some(p.y + self.radius - u.surface.at(p.x));
+            }
+        }
+        sample
     }
 
     /// The fields now on the Q2 nodes, in the lab frame.
@@ -284,6 +320,7 @@ impl Simulation {
         let saved = SavedRun {
             moving: self.stepper.checkpoint(),
             control: self.control.clone(),
+            undisturbed: self.undisturbed.clone(),
         };
         // (serializing plain numbers cannot fail)
         serde_json::to_string(&saved).unwrap_or_default()
@@ -297,6 +334,9 @@ impl Simulation {
         let saved = serde_json::from_str::<SavedRun>(saved).map_err(|e| e.to_string())?;
         if let (Some(control), Some(saved)) = (self.control.as_mut(), saved.control) {
             *control = saved;
+        }
+        if saved.undisturbed.is_some() {
+            self.undisturbed = saved.undisturbed;
         }
         self.stepper
             .restore(saved.moving)

@@ -66,15 +66,21 @@ pub fn run_case(case: &CaseSpec, obs: &mut dyn CaseObserver) -> CaseResult {
         Err(SetupError::Solver(e)) => return ended_by(e, 0, 0.0),
         Err(e) => return CaseResult::failed(e.to_string()),
     };
-    if let Some(saved) = obs.resume_state() {
+    let resumed = obs.resume_state();
+    if let Some(saved) = &resumed {
         // an interrupted attempt saved its state: continue from there (the observer already
         // has everything up to that step)
-        if let Err(e) = sim.restore(&saved) {
+        if let Err(e) = sim.restore(saved) {
             return CaseResult::failed(format!(
                 "cannot continue from the saved state ({e}); rerun with --retry-failed to start over"
             ));
         }
-    } else {
+    }
+    // (an extrusion's undisturbed surface, unless the saved state has it)
+    if let Err(e) = sim.settle() {
+        return ended_by(e, 0, 0.0);
+    }
+    if resumed.is_none() {
         if obs.snapshot_due(0) {
             obs.on_snapshot(&sim.snapshot());
         }

@@ -26,6 +26,9 @@ use crate::xfem::LevelSet;
 /// slivers above (area ratio ~1e-9) are below the cut rule's discard ratio (1e-6).
 pub const DIE_OFFSET: f64 = 1e-9;
 
+/// The steady test of thesis §6.4: every surface node moves less than this in a step.
+pub const STEADY_HEIGHT_TOL: f64 = 1e-7;
+
 /// Ghost-penalty factor of the stress transport in a flow with a free surface, 10× the particles'
 /// default ([`GHOST_PENALTY`](crate::solver::constitutive::GHOST_PENALTY)): in the UCM extrudate
 /// swell on h = 0.0125 with 1e-3 the extension values of s in the slivers cut near the pinned

@@ -564,8 +564,9 @@ fn insert_samples(
     samples: &[Sample],
 ) -> rusqlite::Result<()> {
     let mut st = tx.prepare(
-        "INSERT OR REPLACE INTO samples (case_id, step, t, particle, x, y, u, v, omega, theta)
-         VALUES (?1, ?2, ?3, ?4, ?5, ?6, ?7, ?8, ?9, ?10)",
+        "INSERT OR REPLACE INTO samples
+             (case_id, step, t, particle, x, y, u, v, omega, theta, separation)
+         VALUES (?1, ?2, ?3, ?4, ?5, ?6, ?7, ?8, ?9, ?10, ?11)",
     )?;
     for s in samples {
         for (k, p) in s.particles.iter().enumerate() {
@@ -579,7 +580,8 @@ fn insert_samples(
                 p.u,
                 p.v,
                 p.omega,
-                p.theta
+                p.theta,
+                p.separation
             ])?;
         }
     }

@@ -302,8 +302,9 @@ impl Store {
             }
         };
         for sql in [
-            "INSERT INTO samples (case_id, step, t, particle, x, y, u, v, omega, theta)
-             SELECT ?1, step, t, particle, x, y, u, v, omega, theta FROM shard.samples WHERE case_id = ?2",
+            "INSERT INTO samples (case_id, step, t, particle, x, y, u, v, omega, theta, separation)
+             SELECT ?1, step, t, particle, x, y, u, v, omega, theta, separation
+             FROM shard.samples WHERE case_id = ?2",
             "INSERT INTO outcomes (case_id, kind, string_length, t_decided, mean_gap, final_json)
              SELECT ?1, kind, string_length, t_decided, mean_gap, final_json FROM shard.outcomes WHERE case_id = ?2",
             "INSERT INTO snapshots (case_id, step, t, file)

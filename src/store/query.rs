@@ -403,16 +403,30 @@ impl Store {
                         )))
                     }
                 };
-                let sql = "SELECT step, t, particle, x, y, u, v, omega, theta FROM samples WHERE case_id = ?1
-                           ORDER BY step, particle";
+                let sql = "SELECT step, t, particle, x, y, u, v, omega, theta, separation
+                           FROM samples WHERE case_id = ?1 ORDER BY step, particle";
                 let cols = [
-                    "step", "t", "particle", "x", "y", "u", "v", "omega", "theta",
+                    "step",
+                    "t",
+                    "particle",
+                    "x",
+                    "y",
+                    "u",
+                    "v",
+                    "omega",
+                    "theta",
+                    "separation",
                 ];
-                let rows = self.rows(sql, &[SqlValue::Integer(id.as_i64().unwrap_or(-1))])?;
-                Ok(Table {
-                    columns: cols.iter().map(|c| c.to_string()).collect(),
-                    rows,
-                })
+                let mut rows = self.rows(sql, &[SqlValue::Integer(id.as_i64().unwrap_or(-1))])?;
+                let mut columns: Vec<String> = cols.iter().map(|c| c.to_string()).collect();
+                // the separation from a free surface: only for the cases that have one
+                if rows.iter().all(|r| r.last().is_some_and(Value::is_null)) {
+                    columns.pop();
+                    rows.iter_mut().for_each(|r| {
+                        r.pop();
+                    });
+                }
+                Ok(Table { columns, rows })
             }
         }
     }

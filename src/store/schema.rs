@@ -57,7 +57,7 @@ CREATE TABLE IF NOT EXISTS sweep_cases (
 CREATE TABLE IF NOT EXISTS samples (
     case_id INTEGER NOT NULL REFERENCES cases(id),
     step INTEGER NOT NULL, t REAL NOT NULL, particle INTEGER NOT NULL,
-    x REAL, y REAL, u REAL, v REAL, omega REAL, theta REAL,
+    x REAL, y REAL, u REAL, v REAL, omega REAL, theta REAL, separation REAL,
     PRIMARY KEY (case_id, step, particle)
 ) WITHOUT ROWID;
 CREATE TABLE IF NOT EXISTS outcomes (
@@ -94,11 +94,14 @@ CREATE VIEW IF NOT EXISTS string_formation AS
 /// the code version is the run's). 2 → 3: `merged_shards`, the shards `xpflow merge` folded in
 /// (made by [`CREATE`], which runs first). 3 → 4: the outcome kinds of an extrusion
 /// (`surface_contact`, `exited`) in `outcomes.kind`'s check: SQLite cannot alter a check, so the
-/// table is copied into a new one (the views that read it dropped and made again).
+/// table is copied into a new one (the views that read it dropped and made again); and
+/// `samples.separation`, a particle's separation from the undisturbed free surface (thesis
+/// Eq. 6.65).
 pub const MIGRATIONS: &[&str] = &[
     "ALTER TABLE cases ADD COLUMN settings_json TEXT;",
     "",
     r#"
+ALTER TABLE samples ADD COLUMN separation REAL;
 DROP VIEW IF EXISTS case_outcomes;
 DROP VIEW IF EXISTS string_formation;
 CREATE TABLE outcomes_v4 (

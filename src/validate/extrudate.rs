@@ -26,8 +26,7 @@ use crate::solver::viscoelastic::{
 };
 use crate::xfem::CutOptions;
 
-/// The steady test of §6.4: every surface node moves less than this in a step.
-pub const STEADY_HEIGHT_TOL: f64 = 1e-7;
+pub use crate::solver::free_surface::STEADY_HEIGHT_TOL;
 
 /// The published Newtonian swell ratio (Table 6.3, De = 0: M2–M4, MBFM and Crochet & Keunings).
 pub const NEWTONIAN_SWELL: f64 = 1.188;

@@ -138,6 +138,7 @@ fn a_chain_held_to_the_end_is_a_drifting_string() {
                     v: 0.0,
                     omega: 0.1 + 1e-3 * (step % 2) as f64,
                     theta: 0.0,
+                    separation: None,
                 })
                 .collect();
             let decided = c.push(&Sample {
@@ -244,6 +245,7 @@ fn the_steady_test_is_a_rate_whatever_the_step() {
                 v: 0.0,
                 omega: 0.5 + rate * t,
                 theta: 0.0,
+                separation: None,
             };
             let sample = Sample {
                 step,

@@ -70,7 +70,7 @@ impl Surface {
         &self.height
     }
 
-    /// max|Hⁿ − Hⁿ⁻¹| of the last step: below `free_surface::STEADY_HEIGHT_TOL` the surface is
+    /// max|Hⁿ − Hⁿ⁻¹| of the last step: below [`crate::solver::free_surface::STEADY_HEIGHT_TOL`] the surface is
     /// steady (thesis §6.4).
     pub(super) fn change(&self) -> f64 {
         self.change
