@@ -141,3 +141,37 @@ fn a_restored_extrusion_continues_the_saved_run() {
     );
     assert!(ha.iter().zip(hb).all(|(x, y)| (x - y).abs() < SAME));
 }
+
+/// Before its first sample an extrusion case computes its undisturbed steady surface H̄ (the case
+/// without its particle, to the steady test), and every sample carries the separation
+/// s = Y + a − H̄(X) of thesis Eq. 6.65; H̄ swells above H0 (Giesekus, Wi = 0.25) and is pinned
+/// at the die exit.
+#[test]
+fn separations_are_measured_from_the_undisturbed_steady_surface() {
+    // every separation is the same arithmetic on the same numbers
+    const SAME: f64 = 1e-14;
+    let mut case = coarse_case();
+    case.numerics.mesh = [35, 10];
+    case.particles.as_mut().unwrap().radius = 0.25;
+    case.particles.as_mut().unwrap().layout = xpflow::config::Layout::Explicit {
+        positions: vec![[-2.3, 0.5]],
+    };
+    let case = CaseSpec::from_value(serde_json::to_value(&case).unwrap()).unwrap();
+    let mut sim = Simulation::new(&case).unwrap();
+    assert!(sim.undisturbed().is_none());
+    sim.settle().unwrap();
+    let u = sim.undisturbed().unwrap().clone();
+    assert!(u.steady, "{} steps", u.steps);
+    assert_eq!(u.surface.heights()[0], 1.0);
+    assert!(u.swell() > 1.0 && u.swell() < 1.3, "swell {}", u.swell());
+    for _ in 0..3 {
+        sim.step().unwrap();
+    }
+    let p = sim.sample().particles[0];
+    let want = p.y + 0.25 - u.surface.at(p.x);
+    assert!((p.separation.unwrap() - want).abs() < SAME);
+    assert!(
+        (want - (p.y + 0.25 - 1.0)).abs() < SAME,
+        "H̄ = H0 in the die"
+    );
+}

@@ -149,6 +149,9 @@ pub struct Classifier {
     #[serde(default)]
     min_gap_elements: Option<f64>,
     decided: Option<Outcome>,
+    /// An extrusion's undisturbed surface (x, H̄) and swell ratio, for the final state.
+    #[serde(default)]
+    undisturbed: Option<(Vec<[f64; 2]>, f64)>,
     /// Why the step being decided diverged, when the reason is more than a non-finite state.
     #[serde(skip)]
     reason: Option<String>,
@@ -181,8 +184,15 @@ impl Classifier {
             last: None,
             min_gap_elements: None,
             decided: None,
+            undisturbed: None,
             reason: None,
         }
+    }
+
+    /// Records an extrusion's undisturbed steady surface (x, H̄) and its swell ratio: the final
+    /// state keeps them (`undisturbed_surface`: `x`, `h`, `swell`).
+    pub fn set_undisturbed_surface(&mut self, profile: &[[f64; 2]], swell: f64) {
+        self.undisturbed = Some((profile.to_vec(), swell));
     }
 
     /// The outcome, if already decided.
@@ -428,6 +438,13 @@ impl Classifier {
                 .iter()
                 .map(|c| layout::r_star(r1, r2, *c))
                 .collect::<Vec<_>>());
+        }
+        if let Some((profile, swell)) = &self.undisturbed {
+            final_state["undisturbed_surface"] = json!({
+                "x": profile.iter().map(|p| p[0]).collect::<Vec<_>>(),
+                "h": profile.iter().map(|p| p[1]).collect::<Vec<_>>(),
+                "swell": swell,
+            });
         }
         if ps.iter().any(|p| p.separation.is_some()) {
             final_state["separation"] = json!(ps.iter().map(|p| p.separation).collect::<Vec<_>>());

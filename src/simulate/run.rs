@@ -81,6 +81,16 @@ pub fn run_case(case: &CaseSpec, obs: &mut dyn CaseObserver) -> CaseResult {
         return ended_by(e, 0, 0.0);
     }
     if resumed.is_none() {
+        if let Some(u) = sim.undisturbed() {
+            let s = &u.surface;
+            let profile: Vec<[f64; 2]> = s
+                .nodes()
+                .iter()
+                .zip(s.heights())
+                .map(|(&x, &h)| [x, h])
+                .collect();
+            obs.on_undisturbed_surface(&profile, u.swell());
+        }
         if obs.snapshot_due(0) {
             obs.on_snapshot(&sim.snapshot());
         }

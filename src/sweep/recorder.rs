@@ -186,6 +186,10 @@ impl<'a> Recorder<'a> {
 }
 
 impl CaseObserver for Recorder<'_> {
+    fn on_undisturbed_surface(&mut self, profile: &[[f64; 2]], swell: f64) {
+        self.classifier.set_undisturbed_surface(profile, swell);
+    }
+
     fn on_contact(&mut self, contact: &crate::particles::Contact, t: f64) {
         self.classifier.contact(contact, t);
     }
