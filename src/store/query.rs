@@ -403,8 +403,18 @@ impl Store {
                         )))
                     }
                 };
-                let sql = "SELECT step, t, particle, x, y, u, v, omega, theta, separation
-                           FROM samples WHERE case_id = ?1 ORDER BY step, particle";
+                // (a database older than schema 4, read without migrating, has no separation)
+                let has_separation = !self
+                    .rows(
+                        "SELECT 1 FROM pragma_table_info('samples') WHERE name = 'separation'",
+                        &[],
+                    )?
+                    .is_empty();
+                let separation = if has_separation { "separation" } else { "NULL" };
+                let sql = format!(
+                    "SELECT step, t, particle, x, y, u, v, omega, theta, {separation}
+                     FROM samples WHERE case_id = ?1 ORDER BY step, particle"
+                );
                 let cols = [
                     "step",
                     "t",
@@ -417,7 +427,7 @@ impl Store {
                     "theta",
                     "separation",
                 ];
-                let mut rows = self.rows(sql, &[SqlValue::Integer(id.as_i64().unwrap_or(-1))])?;
+                let mut rows = self.rows(&sql, &[SqlValue::Integer(id.as_i64().unwrap_or(-1))])?;
                 let mut columns: Vec<String> = cols.iter().map(|c| c.to_string()).collect();
                 // the separation from a free surface: only for the cases that have one
                 if rows.iter().all(|r| r.last().is_some_and(Value::is_null)) {
