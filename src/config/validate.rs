@@ -451,7 +451,8 @@ impl CaseSpec {
     fn validate_particles(&self) -> Result<(), SpecError> {
         let Some(p) = &self.particles else {
             return match self.geometry {
-                Geometry::CylinderChannel { .. } => Ok(()),
+                // an extrusion without particles: the extrudate swell
+                Geometry::CylinderChannel { .. } | Geometry::Extrusion { .. } => Ok(()),
                 _ => Err(SpecError::new(
                     "particles",
                     "this geometry needs a [particles] table with radius and layout",

@@ -50,6 +50,26 @@ pub struct Sample {
     /// samples read back from a database).
     #[serde(default)]
     pub gap_elements: Option<f64>,
+    /// The free surface of an extrusion (`None` without one).
+    #[serde(default, skip_serializing_if = "Option::is_none")]
+    pub surface: Option<SurfaceSample>,
+}
+
+/// A free surface after one time step.
+#[derive(Debug, Clone, PartialEq, serde::Serialize, serde::Deserialize)]
+pub struct SurfaceSample {
+    /// How far it moved in the step, max|Hⁿ⁺¹ − Hⁿ| (the steady test of thesis §6.4).
+    pub change: f64,
+    /// (x, H) from the die exit (where H = H0) on.
+    pub profile: Vec<[f64; 2]>,
+}
+
+impl SurfaceSample {
+    /// The swell ratio max H / H0.
+    pub fn swell(&self) -> f64 {
+        let h0 = self.profile.first().map_or(1.0, |p| p[1]);
+        self.profile.iter().map(|p| p[1]).fold(f64::MIN, f64::max) / h0
+    }
 }
 
 /// A nodal field on the mesh of a snapshot.

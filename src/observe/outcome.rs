@@ -23,6 +23,7 @@
 //! up to the decision (`final_state.gap_elements_min`, and `gap_elements` at the decision), and a
 //! `final_state.warning` when a decided outcome rests on fewer than [`MIN_GAP_ELEMENTS`].
 
+use crate::solver::free_surface::STEADY_HEIGHT_TOL;
 use serde_json::{json, Value};
 
 use super::{ParticleState, Sample};
@@ -322,6 +323,14 @@ impl Classifier {
         if wall {
             return Some(OutcomeKind::WallContact);
         }
+        // an extrusion without particles (the extrudate swell): the steady test of thesis §6.4
+        if ps.is_empty()
+            && s.surface
+                .as_ref()
+                .is_some_and(|f| f.change < STEADY_HEIGHT_TOL)
+        {
+            return Some(OutcomeKind::Steady);
+        }
         let centres: Vec<[f64; 2]> = ps.iter().map(|p| [p.x, p.y]).collect();
         for i in 0..centres.len() {
             for j in i + 1..centres.len() {
@@ -354,8 +363,12 @@ impl Classifier {
         };
         self.steady_steps = if steady_now { self.steady_steps + 1 } else { 0 };
         self.last_omega = Some(omega);
-        let is_couette = matches!(self.geometry, Geometry::Couette { .. });
-        if self.steady_steps >= STEADY_HOLD_STEPS && !is_couette && !ps.is_empty() {
+        // (a Couette particle's outcome is its migration, an extruded one's its trajectory)
+        let by_rotation = !matches!(
+            self.geometry,
+            Geometry::Couette { .. } | Geometry::Extrusion { .. }
+        );
+        if self.steady_steps >= STEADY_HOLD_STEPS && by_rotation && !ps.is_empty() {
             return Some(if chained {
                 OutcomeKind::String
             } else {
@@ -438,6 +451,14 @@ impl Classifier {
                 .iter()
                 .map(|c| layout::r_star(r1, r2, *c))
                 .collect::<Vec<_>>());
+        }
+        if let Some(f) = self.last.as_ref().and_then(|s| s.surface.as_ref()) {
+            final_state["surface"] = json!({
+                "x": f.profile.iter().map(|p| p[0]).collect::<Vec<_>>(),
+                "h": f.profile.iter().map(|p| p[1]).collect::<Vec<_>>(),
+                "swell": f.swell(),
+                "change": f.change,
+            });
         }
         if let Some((profile, swell)) = &self.undisturbed {
             final_state["undisturbed_surface"] = json!({

@@ -106,6 +106,7 @@ pub fn sample(kind: OutcomeKind, spec: &CaseSpec, step: u64, t: f64) -> Sample {
         t,
         particles,
         gap_elements: None,
+        surface: None,
     }
 }
 

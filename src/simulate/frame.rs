@@ -70,6 +70,7 @@ pub fn sample(
         step,
         t,
         gap_elements,
+        surface: None,
         particles: (0..s.x.len())
             .map(|i| {
                 let (x, u) = frame.to_lab(t, s.x[i], s.u[i]);

@@ -24,7 +24,7 @@ pub use undisturbed::Undisturbed;
 use crate::config::{CaseSpec, Geometry};
 use crate::geometry::{ConfinedShear, CouetteError, CouetteGeometry, RotatingCouette, SetUp};
 use crate::mesh::resolution::{elements_between, narrowest_gap};
-use crate::observe::{FieldSnapshot, Sample};
+use crate::observe::{FieldSnapshot, Sample, SurfaceSample};
 use crate::solver::moving::{
     ComputationalMesh, MovingCheckpoint, MovingError, MovingParticles, StepOutcome,
 };
@@ -88,11 +88,7 @@ impl Simulation {
                 ))
             }
             Geometry::ConfinedShear { .. } | Geometry::Couette { .. } => Ok(()),
-            Geometry::Extrusion { .. } if case.radius().is_none() => Err(
-                "an extrusion without particles is the extrudate swell: `xpflow validate \
-                 extrudate-swell`"
-                    .into(),
-            ),
+            // without particles: the extrudate swell
             Geometry::Extrusion { .. } => Ok(()),
             Geometry::CylinderChannel { .. } => Err(
                 "the cylinder-channel benchmark runs with `xpflow validate cylinder`, not as a case"
@@ -143,8 +139,12 @@ impl Simulation {
         Self::supports(case).map_err(SetupError::Unsupported)?;
         let settings = Settings::of(case);
         let set_up = Self::set_up(case)?;
-        let (Some(radius), Some(base)) = (case.radius(), case.base_mesh()) else {
-            unreachable!("a supported case has particles and a mesh")
+        // (an extrusion may have no particles: its radius is never used)
+        let (Some(radius), Some(base)) = (
+            case.radius().or(case.extrusion().map(|_| 0.0)),
+            case.base_mesh(),
+        ) else {
+            unreachable!("a supported case has particles (or a free surface) and a mesh")
         };
         let mesh: ComputationalMesh = match case.following_mesh() {
             Some(follow) => follow.into(),
@@ -284,6 +284,17 @@ impl Simulation {
             for p in &mut sample.particles {
                 p.separation = Some(p.y + self.radius - u.surface.at(p.x));
             }
+        }
+        if let (Some(s), Some(change)) = (self.stepper.surface(), self.stepper.surface_change()) {
+            sample.surface = Some(SurfaceSample {
+                change,
+                profile: s
+                    .nodes()
+                    .iter()
+                    .zip(s.heights())
+                    .map(|(&x, &h)| [x, h])
+                    .collect(),
+            });
         }
         sample
     }

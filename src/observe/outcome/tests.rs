@@ -3,7 +3,7 @@
 use serde_json::json;
 
 use super::*;
-use crate::observe::synthetic;
+use crate::observe::{synthetic, SurfaceSample};
 
 /// Time step of the synthetic runs (t* units, H = U_w = 1).
 const DT: f64 = 0.01;
@@ -146,6 +146,7 @@ fn a_chain_held_to_the_end_is_a_drifting_string() {
                 t,
                 particles,
                 gap_elements: None,
+                surface: None,
             });
             assert!(decided.is_none(), "decided early at t = {t}");
         }
@@ -252,6 +253,7 @@ fn the_steady_test_is_a_rate_whatever_the_step() {
                 t,
                 particles: vec![p],
                 gap_elements: None,
+                surface: None,
             };
             if let Some(o) = c.push(&sample) {
                 return Some(o.kind);
@@ -300,4 +302,61 @@ fn a_predicted_contact_ends_the_run_as_a_contact() {
         c.contact(&overlap, 0.1).is_none(),
         "the first decision stands"
     );
+}
+
+/// An extrusion: without particles the case is steady once its surface moves less than the
+/// steady test per step (the final state keeps the swell); a particle that rotates steadily while
+/// it travels is not an outcome (its trajectory is), and reaching the outflow is `exited`.
+#[test]
+fn an_extrusion_is_steady_by_its_surface_and_a_particle_runs_to_the_outflow() {
+    let extrusion = |particles: serde_json::Value| {
+        let mut v = json!({
+            "geometry": {"extrusion": {"die_length": 3.0, "extrudate_length": 4.0}},
+            "fluid": {"model": "giesekus", "wi": 0.3, "alpha": 0.1},
+            "numerics": {"mesh": [70, 20], "dt": 0.04, "t_end": 10.0}
+        });
+        if !particles.is_null() {
+            v["particles"] = particles;
+        }
+        CaseSpec::from_value(v).unwrap()
+    };
+    let surface = |change: f64| SurfaceSample {
+        change,
+        profile: vec![[0.0, 1.0], [1.0, 1.2], [2.0, 1.19]],
+    };
+    let mut swell = Classifier::new(&extrusion(serde_json::Value::Null));
+    let sample = |step: u64, particles: Vec<ParticleState>, change: f64| Sample {
+        step,
+        t: step as f64 * 0.04,
+        particles,
+        gap_elements: None,
+        surface: Some(surface(change)),
+    };
+    assert!(swell.push(&sample(1, vec![], 1e-3)).is_none());
+    let o = swell.push(&sample(2, vec![], 5e-8)).expect("steady");
+    assert_eq!(o.kind, OutcomeKind::Steady);
+    assert!((o.final_state["surface"]["swell"].as_f64().unwrap() - 1.2).abs() < 1e-15);
+    let mut one = Classifier::new(&extrusion(
+        json!({"radius": 0.1, "layout": {"explicit": {"positions": [[-2.3, 0.8]]}}}),
+    ));
+    for step in 1..=50 {
+        let p = ParticleState {
+            x: -2.3 + 0.02 * step as f64,
+            y: 0.8,
+            u: 0.5,
+            v: 0.0,
+            omega: -0.5,
+            theta: 0.0,
+            separation: Some(-0.1),
+        };
+        assert!(
+            one.push(&sample(step, vec![p], 1e-9)).is_none(),
+            "step {step}"
+        );
+    }
+    let o = one
+        .contact(&crate::particles::Contact::Outflow { i: 0 }, 2.0)
+        .unwrap();
+    assert_eq!(o.kind, OutcomeKind::Exited);
+    assert_eq!(o.final_state["separation"], json!([-0.1]));
 }
