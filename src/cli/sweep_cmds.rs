@@ -106,6 +106,9 @@ pub enum QueryWhat {
     Final,
     /// Raw samples of one case (`--case ID`).
     Trajectory,
+    /// Extrusion cases (thesis §6.4–6.5): swell ratio, the particle's final separation s from the
+    /// undisturbed surface and its final position.
+    Extrusion,
     /// The brackets a search found: per combination of the other axes, each boundary with the
     /// values and outcomes on both sides (sweeps with a `[search]` section).
     Boundaries,
@@ -303,6 +306,7 @@ pub fn run_query_to(args: &QueryArgs, out: &mut dyn Write) -> anyhow::Result<Exi
         QueryWhat::Regime => QueryKind::Regime,
         QueryWhat::Cases => QueryKind::Cases,
         QueryWhat::Final => QueryKind::Final,
+        QueryWhat::Extrusion => QueryKind::Extrusion,
         QueryWhat::FinalR => match FILTER_COLUMNS.iter().find(|c| **c == args.by) {
             Some(c) => QueryKind::FinalRStar(c),
             None => {

@@ -140,6 +140,10 @@ pub enum QueryKind {
     Final,
     /// Samples of the case with this id (hash prefix accepted).
     Trajectory(String),
+    /// One row per decided extrusion case: its swell (the undisturbed surface's for a particle
+    /// case, its own steady one without particles) and the particle's final separation s and
+    /// position (thesis §6.4, §6.5).
+    Extrusion,
 }
 
 fn where_clause(sweep: Option<&str>, filters: &[Filter]) -> (String, Vec<SqlValue>) {
@@ -271,6 +275,27 @@ impl Store {
                 let mut cols = vec!["case", "label", heading];
                 cols.extend(rest.iter().map(|(_, h)| *h));
                 cols.extend(["kind", "r_star_final"]);
+                Ok(Table {
+                    columns: cols.iter().map(|c| c.to_string()).collect(),
+                    rows: self.rows(&sql, &args)?,
+                })
+            }
+            QueryKind::Extrusion => {
+                let sql = format!(
+                    "SELECT c.case_hash, c.label, c.wi, c.alpha, c.a, c.mesh, c.dt, c.kind,
+                            COALESCE(json_extract(c.final_json, '$.undisturbed_surface.swell'),
+                                     json_extract(c.final_json, '$.surface.swell')),
+                            json_extract(c.final_json, '$.separation[0]'),
+                            json_extract(c.final_json, '$.positions[0][0]'),
+                            json_extract(c.final_json, '$.positions[0][1]'), c.t_decided
+                     FROM case_outcomes c{cond}
+                     AND c.geometry = 'extrusion' AND c.kind IS NOT NULL
+                     ORDER BY c.a IS NOT NULL, c.a, c.wi, c.mesh, c.case_hash"
+                );
+                let cols = [
+                    "case", "label", "wi", "alpha", "a", "mesh", "dt", "kind", "swell", "s_final",
+                    "x_final", "y_final", "t_final",
+                ];
                 Ok(Table {
                     columns: cols.iter().map(|c| c.to_string()).collect(),
                     rows: self.rows(&sql, &args)?,

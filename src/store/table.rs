@@ -48,7 +48,8 @@ fn table_digits(column: &str) -> usize {
         "wall_s" => 3,
         "t" | "t_decided" | "t_reached" | "t_end" | "t stored" => 4,
         "x" | "y" | "u" | "v" | "omega" | "theta" | "omega_star" | "r_star" | "r_star_final"
-        | "gap_next_over_a" | "mean_gap" | "separation" => 5,
+        | "gap_next_over_a" | "mean_gap" | "separation" | "swell" | "s_final" | "x_final"
+        | "y_final" => 5,
         _ => 6,
     }
 }
