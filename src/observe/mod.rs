@@ -139,7 +139,20 @@ pub trait CaseObserver {
     /// state before it): a contact the outcome must record, though the last state's overlap may
     /// still be below the outcome rules' threshold.
     fn on_contact(&mut self, _contact: &crate::particles::Contact, _t: f64) {}
-    /// The undisturbed steady free surface H̄ of an extrusion, (x, H̄) from the die exit on, and
-    /// its swell ratio max H̄/H0 (before the first step; separations are measured from it).
-    fn on_undisturbed_surface(&mut self, _profile: &[[f64; 2]], _swell: f64) {}
+    /// The undisturbed steady free surface H̄ of an extrusion (before the first step;
+    /// separations are measured from it).
+    fn on_undisturbed_surface(&mut self, _surface: &UndisturbedSurface) {}
+}
+
+/// An extrusion's undisturbed steady free surface H̄ (the case without its particles).
+#[derive(Debug, Clone, PartialEq, serde::Serialize, serde::Deserialize)]
+pub struct UndisturbedSurface {
+    /// (x, H̄) from the die exit on.
+    pub profile: Vec<[f64; 2]>,
+    /// The swell ratio max H̄/H0.
+    pub swell: f64,
+    /// Steps it took.
+    pub steps: usize,
+    /// Whether it met the steady test (else: the surface at the time limit).
+    pub steady: bool,
 }

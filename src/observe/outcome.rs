@@ -23,6 +23,7 @@
 //! up to the decision (`final_state.gap_elements_min`, and `gap_elements` at the decision), and a
 //! `final_state.warning` when a decided outcome rests on fewer than [`MIN_GAP_ELEMENTS`].
 
+use super::UndisturbedSurface;
 use crate::solver::free_surface::STEADY_HEIGHT_TOL;
 use serde_json::{json, Value};
 
@@ -152,7 +153,7 @@ pub struct Classifier {
     decided: Option<Outcome>,
     /// An extrusion's undisturbed surface (x, H̄) and swell ratio, for the final state.
     #[serde(default)]
-    undisturbed: Option<(Vec<[f64; 2]>, f64)>,
+    undisturbed: Option<UndisturbedSurface>,
     /// Why the step being decided diverged, when the reason is more than a non-finite state.
     #[serde(skip)]
     reason: Option<String>,
@@ -190,10 +191,10 @@ impl Classifier {
         }
     }
 
-    /// Records an extrusion's undisturbed steady surface (x, H̄) and its swell ratio: the final
-    /// state keeps them (`undisturbed_surface`: `x`, `h`, `swell`).
-    pub fn set_undisturbed_surface(&mut self, profile: &[[f64; 2]], swell: f64) {
-        self.undisturbed = Some((profile.to_vec(), swell));
+    /// Records an extrusion's undisturbed steady surface: the final state keeps it
+    /// (`undisturbed_surface`: `x`, `h`, `swell`, `steps`, `steady`).
+    pub fn set_undisturbed_surface(&mut self, surface: &UndisturbedSurface) {
+        self.undisturbed = Some(surface.clone());
     }
 
     /// The outcome, if already decided.
@@ -460,11 +461,13 @@ impl Classifier {
                 "change": f.change,
             });
         }
-        if let Some((profile, swell)) = &self.undisturbed {
+        if let Some(u) = &self.undisturbed {
             final_state["undisturbed_surface"] = json!({
-                "x": profile.iter().map(|p| p[0]).collect::<Vec<_>>(),
-                "h": profile.iter().map(|p| p[1]).collect::<Vec<_>>(),
-                "swell": swell,
+                "x": u.profile.iter().map(|p| p[0]).collect::<Vec<_>>(),
+                "h": u.profile.iter().map(|p| p[1]).collect::<Vec<_>>(),
+                "swell": u.swell,
+                "steps": u.steps,
+                "steady": u.steady,
             });
         }
         if ps.iter().any(|p| p.separation.is_some()) {

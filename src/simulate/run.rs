@@ -5,7 +5,7 @@
 
 use super::{SetupError, Simulation};
 use crate::config::CaseSpec;
-use crate::observe::{CaseObserver, Control};
+use crate::observe::{CaseObserver, Control, UndisturbedSurface};
 use crate::solver::moving::{MovingError, StepOutcome};
 use crate::solver::viscoelastic::ViscoelasticError;
 
@@ -83,13 +83,17 @@ pub fn run_case(case: &CaseSpec, obs: &mut dyn CaseObserver) -> CaseResult {
     if resumed.is_none() {
         if let Some(u) = sim.undisturbed() {
             let s = &u.surface;
-            let profile: Vec<[f64; 2]> = s
-                .nodes()
-                .iter()
-                .zip(s.heights())
-                .map(|(&x, &h)| [x, h])
-                .collect();
-            obs.on_undisturbed_surface(&profile, u.swell());
+            obs.on_undisturbed_surface(&UndisturbedSurface {
+                profile: s
+                    .nodes()
+                    .iter()
+                    .zip(s.heights())
+                    .map(|(&x, &h)| [x, h])
+                    .collect(),
+                swell: u.swell(),
+                steps: u.steps,
+                steady: u.steady,
+            });
         }
         if obs.snapshot_due(0) {
             obs.on_snapshot(&sim.snapshot());

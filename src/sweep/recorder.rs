@@ -186,8 +186,8 @@ impl<'a> Recorder<'a> {
 }
 
 impl CaseObserver for Recorder<'_> {
-    fn on_undisturbed_surface(&mut self, profile: &[[f64; 2]], swell: f64) {
-        self.classifier.set_undisturbed_surface(profile, swell);
+    fn on_undisturbed_surface(&mut self, surface: &crate::observe::UndisturbedSurface) {
+        self.classifier.set_undisturbed_surface(surface);
     }
 
     fn on_contact(&mut self, contact: &crate::particles::Contact, t: f64) {
