@@ -291,8 +291,9 @@ impl Store {
 mod tests {
     use super::*;
 
-    /// A version-1 database (no `cases.settings_json`) is migrated on open: the column is there
-    /// and the version is the current one.
+    /// A version-1 database (no `cases.settings_json`, no `samples.separation`, the outcome kinds
+    /// before extrusion) is migrated on open: the columns are there, an extrusion's outcome kind
+    /// is admitted, the views read the new outcomes table, and the version is the current one.
     #[test]
     fn a_version_1_database_gains_the_settings_column() {
         let dir = std::env::temp_dir().join(format!("xpflow-migrate-{}", std::process::id()));
@@ -301,8 +302,19 @@ mod tests {
         std::fs::remove_file(&path).ok();
         {
             let conn = Connection::open(&path).unwrap();
-            let v1 = schema::CREATE.replace(",\n    settings_json TEXT", "");
-            assert_ne!(v1, schema::CREATE, "the v1 schema differs by the column");
+            let v1 = schema::CREATE
+                .replace(",\n    settings_json TEXT", "")
+                .replace(" separation REAL,", "")
+                .replace(
+                    "'wall_contact',\n                                        'surface_contact', 'exited', 'migrated', 'steady',",
+                    "'wall_contact', 'migrated', 'steady',",
+                );
+            assert!(
+                !v1.contains("settings_json")
+                    && !v1.contains("separation")
+                    && !v1.contains("exited"),
+                "the v1 schema lacks the columns and kinds"
+            );
             conn.execute_batch(&v1).unwrap();
             conn.execute("INSERT INTO schema_version (version) VALUES (1)", [])
                 .unwrap();
@@ -322,6 +334,26 @@ mod tests {
             )
             .unwrap();
         assert_eq!(has_column, 1);
+        let conn = store.connection();
+        let separation: i64 = conn
+            .query_row(
+                "SELECT COUNT(*) FROM pragma_table_info('samples') WHERE name = 'separation'",
+                [],
+                |r| r.get(0),
+            )
+            .unwrap();
+        assert_eq!(separation, 1);
+        conn.execute_batch(
+            "INSERT INTO sweeps (name, spec_json, code_version, machine) VALUES ('s', '{}', 'v', 'm');
+             INSERT INTO cases (sweep_id, case_hash, label, geometry, params_json)
+                 VALUES (1, 'h', 'l', 'extrusion', '{}');
+             INSERT INTO outcomes (case_id, kind, final_json) VALUES (1, 'exited', '{}');",
+        )
+        .unwrap();
+        let kind: String = conn
+            .query_row("SELECT kind FROM case_outcomes", [], |r| r.get(0))
+            .unwrap();
+        assert_eq!(kind, "exited");
         std::fs::remove_dir_all(&dir).ok();
     }
 }
