@@ -29,19 +29,31 @@ impl TemporaryAle {
         if let Some(b) = &background {
             assert_eq!(b.len(), nv, "one background displacement per vertex");
         }
-        let d = self.harmonic(mesh, moves, period, background.as_deref());
+        let outside = self.outside.take();
+        if let Some(o) = &outside {
+            assert_eq!(o.len(), nv, "one outside flag per vertex");
+        }
+        let d = self.harmonic(
+            mesh,
+            moves,
+            period,
+            background.as_deref(),
+            outside.as_deref(),
+        );
         self.background = background;
+        self.outside = outside;
         d
     }
 
     /// The harmonic part of the displacement: rigid moves less `background` on the patches, zero
-    /// on the walls; the background added.
+    /// on the walls and the vertices `outside` the fluid; the background added.
     fn harmonic(
         &mut self,
         mesh: &Mesh,
         moves: &[RigidMove],
         period: Option<f64>,
         background: Option<&[[f64; 2]]>,
+        outside: Option<&[bool]>,
     ) -> Result<Vec<[f64; 2]>, AleError> {
         let nv = mesh.n_vertices();
         let bg = |v: usize| background.map_or([0.0; 2], |b| b[v]);
@@ -74,7 +86,7 @@ impl TemporaryAle {
         }
         let fixed: Vec<Option<[f64; 2]>> = (0..nv)
             .map(|v| {
-                if self.wall[v] {
+                if self.wall[v] || outside.is_some_and(|o| o[v]) {
                     Some([0.0; 2])
                 } else {
                     claim[v].map(|(_, m)| [m[0] - bg(v)[0], m[1] - bg(v)[1]])

@@ -123,6 +123,10 @@ pub struct TemporaryAle {
     /// and zero on the walls, so that the patches still move rigidly in the sum and the walls by
     /// the background.
     pub background: Option<Vec<[f64; 2]>>,
+    /// Vertices outside the fluid (above a free surface; `None`: none): they move by the
+    /// background alone and never with a particle's rigid patch, so that a particle close to
+    /// the surface does not drag the mesh beyond it against the surface's stretch.
+    pub outside: Option<Vec<bool>>,
 }
 
 /// Where each node of the mesh with these axes lies in it ([`Mesh::locate`]: element and ξ): the
@@ -169,6 +173,7 @@ impl TemporaryAle {
             remap: Remap::default(),
             homes: None,
             background: None,
+            outside: None,
         }
     }
 

@@ -561,3 +561,51 @@ fn a_background_displacement_leaves_the_patches_rigid() {
         "a still patch holds its vertices"
     );
 }
+
+/// Vertices flagged outside the fluid (above a free surface) move by the background alone, even
+/// where a particle's patch would claim them; the patch's other vertices still move rigidly.
+#[test]
+fn vertices_outside_the_fluid_follow_the_background_alone() {
+    let mesh = Mesh::rectangle(
+        Axis::uniform(-1.0, 1.0, 20),
+        Axis::uniform(0.0, 1.0, 10),
+        false,
+    );
+    let bg: Vec<[f64; 2]> = mesh
+        .node_of_vertex
+        .iter()
+        .map(|&k| [0.0, 0.02 * mesh.nodes[k][1]])
+        .collect();
+    // the fluid lies below y = 0.65; the particle's patch reaches above it
+    let outside: Vec<bool> = mesh
+        .node_of_vertex
+        .iter()
+        .map(|&k| mesh.nodes[k][1] > 0.65)
+        .collect();
+    let mut ale = TemporaryAle::new(&mesh);
+    ale.background = Some(bg.clone());
+    ale.outside = Some(outside.clone());
+    let moves = vec![RigidMove {
+        center: [0.0, 0.55],
+        radius: 0.15,
+        displacement: [0.02, -0.01],
+    }];
+    let d = ale.displacement(&mesh, &moves, None).unwrap();
+    let (mut above, mut rigid) = (0, 0);
+    for (v, &k) in mesh.node_of_vertex.iter().enumerate() {
+        let [x, y] = mesh.nodes[k];
+        if outside[v] {
+            above += usize::from(x.hypot(y - 0.55) < 0.25);
+            assert!(
+                (d[v][0] - bg[v][0]).abs() < SOLVE_TOL && (d[v][1] - bg[v][1]).abs() < SOLVE_TOL
+            );
+        } else if x.hypot(y - 0.55) < 0.15 {
+            rigid += 1;
+            assert!((d[v][0] - 0.02).abs() < SOLVE_TOL && (d[v][1] + 0.01).abs() < SOLVE_TOL);
+        }
+    }
+    assert!(
+        above > 0 && rigid > 0,
+        "{above} outside near the particle, {rigid} rigid"
+    );
+}

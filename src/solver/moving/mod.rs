@@ -424,11 +424,13 @@ impl<D: Confinement + Clone + 'static> MovingParticles<D> {
         let bdf = self.flow.history().bdf2(self.dt());
         let target = onto.as_ref().unwrap_or(self.flow.mesh());
         // the surface's stretch under the particles' moves (onto a fixed mesh: no follow)
-        self.ale.background = self
-            .surface
-            .as_ref()
-            .zip(surface)
-            .map(|(s, at)| s.background(self.flow.mesh(), at));
+        (self.ale.background, self.ale.outside) = match self.surface.as_ref().zip(surface) {
+            Some((s, at)) => {
+                let (stretch, outside) = s.background(self.flow.mesh(), at);
+                (Some(stretch), Some(outside))
+            }
+            None => (None, None),
+        };
         let map = self
             .ale
             .advance_onto(

@@ -112,9 +112,23 @@ impl Surface {
     }
 
     /// The stretch that carries the fields' configuration Ĥⁿ onto `predicted`, at the vertices:
-    /// the background of the particles' temporary ALE map.
-    pub(super) fn background(&self, mesh: &Mesh, predicted: &HeightFunction) -> Vec<[f64; 2]> {
-        stretch_displacement(mesh, self.extrusion.top, predicted, &self.fields_at)
+    /// the background of the particles' temporary ALE map; and the vertices outside the fluid of
+    /// Ĥⁿ (above the surface or the die wall), which move by the stretch alone.
+    pub(super) fn background(
+        &self,
+        mesh: &Mesh,
+        predicted: &HeightFunction,
+    ) -> (Vec<[f64; 2]>, Vec<bool>) {
+        let outside = mesh
+            .node_of_vertex
+            .iter()
+            .map(|&k| {
+                let [x, y] = mesh.nodes[k];
+                y > self.fields_at.at(x)
+            })
+            .collect();
+        let stretch = stretch_displacement(mesh, self.extrusion.top, predicted, &self.fields_at);
+        (stretch, outside)
     }
 
     /// Step 5 of §6.3.4: Hⁿ⁺¹ by the kinematic equation with the flow's `velocity` (Q2 nodes of
