@@ -9,6 +9,7 @@ prints what is missing and, when nothing can be drawn, writes no figure and list
 Scalings (thesis):
   confined shear (5.6-5.7): γ̇ = U_w/H, t* = tγ̇, U* = U/(Hγ̇), V* = V/(Hγ̇), ω* = ω/γ̇ (clockwise positive).
   Couette (3.5):            t* = tω̄, ω* = ω/ω̄, r* = (r − R1)/(R2 − R1), radial velocity dr*/dt*.
+  extrusion (6.5):          U = Q/H0, t* = tU/H0, U* = U/U, ω* = ωH0/U (clockwise positive), Wi = λU/H0.
 """
 
 from __future__ import annotations
@@ -191,22 +192,26 @@ class Case:
 
     @property
     def rate(self) -> float:
-        """γ̇ = U_w/H (shear) or ω̄ (Couette: the thesis' t* = tω̄); 1 otherwise."""
+        """γ̇ = U_w/H (shear), ω̄ (Couette: the thesis' t* = tω̄) or U/H0 = Q/H0² (extrusion); 1 otherwise."""
         g = self.geo()
         if self.geometry == "confined_shear":
             return g.get("wall_speed", 1.0) / g["h"]
         if self.geometry == "couette":
             return g.get("omega_inner", 1.0)
+        if self.geometry == "extrusion":
+            return g.get("flow_rate", 1.0) / g.get("h0", 1.0) ** 2
         return 1.0
 
     @property
     def velocity_scale(self) -> float:
-        """Hγ̇ = U_w (shear), (R2 − R1)ω̄ (Couette)."""
+        """Hγ̇ = U_w (shear), (R2 − R1)ω̄ (Couette), U = Q/H0 (extrusion: the mean velocity in the die)."""
         g = self.geo()
         if self.geometry == "confined_shear":
             return g.get("wall_speed", 1.0)
         if self.geometry == "couette":
             return (g["r2"] - g["r1"]) * g.get("omega_inner", 1.0)
+        if self.geometry == "extrusion":
+            return g.get("flow_rate", 1.0) / g.get("h0", 1.0)
         return 1.0
 
     @property
@@ -261,7 +266,9 @@ class Case:
 
 @dataclass
 class Track:
-    """Samples of one particle of one case, as float arrays (NULL → NaN), t ascending."""
+    """Samples of one particle of one case, as float arrays (NULL → NaN), t ascending. `separation` is the
+    extrusion's s = Y + a − H̄(X) (all NaN without a free surface or in a database older than that column;
+    None in a Track built from the seven others)."""
 
     t: np.ndarray
     x: np.ndarray
@@ -270,6 +277,7 @@ class Track:
     v: np.ndarray
     omega: np.ndarray
     theta: np.ndarray
+    separation: np.ndarray | None = None
 
 
 CASE_SQL = """
@@ -283,7 +291,7 @@ ORDER BY c.id
 """
 
 SAMPLE_SQL = """
-SELECT particle, t, x, y, u, v, omega, theta FROM samples WHERE case_id = ? ORDER BY particle, step
+SELECT particle, t, x, y, u, v, omega, theta, {separation} FROM samples WHERE case_id = ? ORDER BY particle, step
 """
 
 
@@ -315,14 +323,17 @@ class Figures:
     def samples(self, case: Case) -> dict[int, Track]:
         """particle → Track (empty dict if the case has no samples)."""
         if case._samples is None:
-            rows = self.con.execute(SAMPLE_SQL, (case.id,)).fetchall()
+            # samples.separation came with schema version 4 (src/store/schema.rs): NULL in older databases
+            cols = {r[1] for r in self.con.execute("PRAGMA table_info(samples)")}
+            sql = SAMPLE_SQL.format(separation="separation" if "separation" in cols else "NULL")
+            rows = self.con.execute(sql, (case.id,)).fetchall()
             by: dict[int, list] = {}
             for r in rows:
                 by.setdefault(r[0], []).append(r[1:])
             tracks = {}
             for p, rs in by.items():
                 a = np.array([[np.nan if v is None else v for v in r] for r in rs], dtype=float)
-                tracks[p] = Track(*(a[:, i] for i in range(7)))
+                tracks[p] = Track(*(a[:, i] for i in range(8)))
             case._samples = tracks
         return case._samples
 

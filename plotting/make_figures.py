@@ -34,6 +34,7 @@ SCRIPTS = [
     "regime_map",
     "string_tables",
     "mesh_convergence",
+    "extrusion",
     "field_snapshots",
 ]
 

@@ -117,31 +117,37 @@ class Group:
         return p
 
 
+def split_by_parameters(cases: list[fl.Case], varies=lambda path: False):
+    """Splits `cases` into groups that share every parameter but the mesh, the leaves `varies(path)`
+    lets vary within a group (the curves of a panel), and the settings tied to the mesh (one value per
+    mesh within the group: e.g. Δt zipped with the mesh); yields (cases, tied settings) per group."""
+    flat = {c.id: leaves(c.params) for c in cases}
+
+    def other(path: str) -> bool:
+        return path != MESH_LEAF and not varies(path)
+
+    def coarse(c):
+        return tuple(sorted((k, v) for k, v in flat[c.id].items()
+                            if other(k) and not k.startswith(MESH_TIED_SECTIONS)))
+
+    for _, same in fl.group(cases, key=coarse):
+        paths = sorted({k for c in same for k in flat[c.id] if other(k) and k.startswith(MESH_TIED_SECTIONS)})
+        tied = []
+        for p in paths:
+            per_mesh: dict = {}
+            for c in same:
+                per_mesh.setdefault(mesh_of(c), set()).add(flat[c.id].get(p))
+            if all(len(v) == 1 for v in per_mesh.values()):
+                tied.append(p)
+        free = [p for p in paths if p not in tied]
+        for _, sub in fl.group(same, key=lambda c: tuple(flat[c.id].get(p) for p in free)):
+            yield sub, tied
+
+
 def mesh_groups(cases: list[fl.Case]) -> list[Group]:
     """Groups by all parameters but the mesh; mesh-tied settings (one value per mesh) are not split on."""
-    out = []
-    for geometry in GEOMETRIES:
-        cs = [c for c in cases if c.geometry == geometry]
-        flat = {c.id: leaves(c.params) for c in cs}
-
-        def coarse(c):
-            return tuple(sorted((k, v) for k, v in flat[c.id].items()
-                                if k != MESH_LEAF and not k.startswith(MESH_TIED_SECTIONS)))
-
-        for _, coarse_cases in fl.group(cs, key=coarse):
-            paths = sorted({k for c in coarse_cases for k in flat[c.id]
-                            if k != MESH_LEAF and k.startswith(MESH_TIED_SECTIONS)})
-            tied = []
-            for p in paths:
-                per_mesh: dict = {}
-                for c in coarse_cases:
-                    per_mesh.setdefault(mesh_of(c), set()).add(flat[c.id].get(p))
-                if all(len(v) == 1 for v in per_mesh.values()):
-                    tied.append(p)
-            free = [p for p in paths if p not in tied]
-            for _, sub in fl.group(coarse_cases, key=lambda c: tuple(flat[c.id].get(p) for p in free)):
-                out.append(Group(geometry, sub, tied))
-    return out
+    return [Group(geometry, sub, tied) for geometry in GEOMETRIES
+            for sub, tied in split_by_parameters([c for c in cases if c.geometry == geometry])]
 
 
 def extra_title_leaves(groups: list[Group]) -> list[str]:

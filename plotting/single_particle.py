@@ -117,29 +117,7 @@ class SetUp:
 
 def setups(cases: list[fl.Case]) -> list[SetUp]:
     """Groups by all parameters but the start and the mesh; settings tied to the mesh do not split."""
-    flat = {c.id: mc.leaves(c.params) for c in cases}
-
-    def other(path: str) -> bool:
-        return path != mc.MESH_LEAF and not is_start(path)
-
-    def coarse(c):
-        return tuple(sorted((k, v) for k, v in flat[c.id].items()
-                            if other(k) and not k.startswith(mc.MESH_TIED_SECTIONS)))
-
-    out = []
-    for _, same in fl.group(cases, key=coarse):
-        paths = sorted({k for c in same for k in flat[c.id] if other(k) and k.startswith(mc.MESH_TIED_SECTIONS)})
-        tied = []
-        for p in paths:
-            per_mesh: dict = {}
-            for c in same:
-                per_mesh.setdefault(mc.mesh_of(c), set()).add(flat[c.id].get(p))
-            if all(len(v) == 1 for v in per_mesh.values()):
-                tied.append(p)
-        free = [p for p in paths if p not in tied]
-        for _, sub in fl.group(same, key=lambda c: tuple(flat[c.id].get(p) for p in free)):
-            out.append(SetUp(sub, tied))
-    return out
+    return [SetUp(sub, tied) for sub, tied in mc.split_by_parameters(cases, is_start)]
 
 
 def title_texts(f: fl.Figures, groups: list[SetUp]) -> list[dict]:
