@@ -112,8 +112,9 @@ impl Surface {
     }
 
     /// The stretch that carries the fields' configuration Ĥⁿ onto `predicted`, at the vertices:
-    /// the background of the particles' temporary ALE map; and the vertices outside the fluid of
-    /// Ĥⁿ (above the surface or the die wall), which move by the stretch alone.
+    /// the background of the particles' temporary ALE map; and the vertices that move by the
+    /// stretch alone: those outside the fluid of Ĥⁿ (above the surface) and, in the die, the wall
+    /// and above it (d = 0 on walls, thesis Eq. 5.36; the stretch is zero there).
     pub(super) fn background(
         &self,
         mesh: &Mesh,
@@ -124,7 +125,11 @@ impl Surface {
             .iter()
             .map(|&k| {
                 let [x, y] = mesh.nodes[k];
-                y > self.fields_at.at(x)
+                if x <= 0.0 {
+                    y >= self.extrusion.h0 * (1.0 - 1e-9)
+                } else {
+                    y > self.fields_at.at(x)
+                }
             })
             .collect();
         let stretch = stretch_displacement(mesh, self.extrusion.top, predicted, &self.fields_at);
