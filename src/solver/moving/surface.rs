@@ -238,3 +238,35 @@ pub(super) fn apply_extrusion(
     flow.set_inflow_log_conformation(Side::Left, move |x| (x[1] <= e.h0 + tol).then(|| die(x[1])));
     Ok(())
 }
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    /// The vertices that move by the surface's stretch alone: in the die the wall and above it
+    /// (a wall of the ALE map), in the extrudate those above the surface; the rest are free for
+    /// the particles' map. The stretch is zero in the die.
+    #[test]
+    fn the_die_wall_and_the_outside_follow_the_stretch_alone() {
+        let e = Extrusion {
+            h0: 1.0,
+            die_length: 1.0,
+            extrudate_length: 1.0,
+            flow_rate: 1.0,
+            top: 2.0,
+        };
+        let mesh = e.mesh(10, 10);
+        let s = Surface::new(&mesh, e).unwrap();
+        let mut predicted = s.height().clone();
+        predicted = predicted.predicted(0.1, 0.1);
+        let (stretch, fixed) = s.background(&mesh, &predicted);
+        for (v, &k) in mesh.node_of_vertex.iter().enumerate() {
+            let [x, y] = mesh.nodes[k];
+            let want = if x <= 0.0 { y >= 1.0 } else { y > 1.0 };
+            assert_eq!(fixed[v], want, "({x}, {y})");
+            if x <= 0.0 {
+                assert_eq!(stretch[v], [0.0, 0.0]);
+            }
+        }
+    }
+}
