@@ -110,6 +110,16 @@ pub enum MovingError {
         /// Cause.
         reason: String,
     },
+    /// A free surface rose out of the mesh (its swell outgrew the mesh height).
+    #[error("step {step}: the free surface left the mesh at x = {x} (H = {height}); raise geometry.extrusion.height")]
+    SurfaceEscaped {
+        /// Step.
+        step: usize,
+        /// Where.
+        x: f64,
+        /// Its height there.
+        height: f64,
+    },
     /// Inconsistent set-up.
     #[error("{0}")]
     Setup(String),
@@ -117,7 +127,7 @@ pub enum MovingError {
 
 impl MovingError {
     /// The phase of the time step that failed: `set-up`, `ale_map`, `classify`, `solve_flow`,
-    /// `solve_stress` or `correct`.
+    /// `solve_stress`, `advance_surface` or `correct`.
     pub fn phase(&self) -> &'static str {
         match self {
             MovingError::Cut { .. } => "classify",
@@ -125,6 +135,7 @@ impl MovingError {
             MovingError::Flow(ViscoelasticError::Flow { .. }) => "solve_flow",
             MovingError::Flow(ViscoelasticError::Stress(_)) => "solve_stress",
             MovingError::NonFinite { .. } => "correct",
+            MovingError::SurfaceEscaped { .. } => "advance_surface",
             MovingError::Flow(_) | MovingError::Setup(_) => "set-up",
         }
     }

@@ -141,8 +141,8 @@ impl Surface {
     /// Returns max|Hⁿ⁺¹ − Hⁿ|.
     ///
     /// # Errors
-    /// [`MovingError::Setup`] if a surface point has left the mesh (the swell outgrew the
-    /// mesh height).
+    /// [`MovingError::SurfaceEscaped`] if a surface point has left the mesh (the swell outgrew
+    /// the mesh height).
     pub(super) fn advance(
         &mut self,
         mesh: &Mesh,
@@ -155,10 +155,7 @@ impl Surface {
         let mut u = Vec::with_capacity(predicted.nodes().len());
         for (&x, &y) in predicted.nodes().iter().zip(predicted.heights()) {
             let Some((e, xi)) = mesh.locate([x, y]).filter(|_| y < self.extrusion.top) else {
-                return Err(MovingError::Setup(format!(
-                    "step {step}: the free surface left the mesh at x = {x} (H = {y}); raise \
-                     geometry.extrusion.height"
-                )));
+                return Err(MovingError::SurfaceEscaped { step, x, height: y });
             };
             let (n, _) = q2(xi);
             let mut v = [0.0; 2];
