@@ -12,6 +12,7 @@
 
 mod case;
 mod error;
+mod extrusion;
 mod limits;
 mod method;
 mod search;

@@ -3,18 +3,14 @@
 
 use serde_json::Value;
 
-use super::case::{
-    CaseSpec, FrameChoice, Geometry, HistoryRemap, Layout, Model, StressCoupling,
-    DEFAULT_EXTRUSION_HEIGHT,
-};
+use super::case::{CaseSpec, FrameChoice, Geometry, HistoryRemap, Layout, Model, StressCoupling};
 use super::error::{json_path_at_line, SpecError};
 use super::time_step::TimeStep;
 use crate::geometry::layout;
-use crate::solver::multiplier::RigidCondition;
 
 /// Particles may touch each other or a wall initially (the thesis' δ = 2 set-up touches the walls, 5.7.3);
 /// only overlaps deeper than this fraction of the radius are rejected, to forgive decimal rounding.
-const TOUCH_TOLERANCE: f64 = 1e-9;
+pub(super) const TOUCH_TOLERANCE: f64 = 1e-9;
 
 /// Largest Δt/λ accepted. The Gear scheme treats the relaxation term explicitly (thesis
 /// Eq. 5.52): a stress-free start with Δt ≫ λ diverged (a Wi → 0 case with Δt = 10λ), and the
@@ -125,42 +121,7 @@ impl CaseSpec {
                 }
                 Ok(())
             }
-            Geometry::Extrusion {
-                h0,
-                die_length,
-                extrudate_length,
-                flow_rate,
-                height,
-            } => {
-                positive("geometry.extrusion.h0", h0)?;
-                positive("geometry.extrusion.die_length", die_length)?;
-                positive("geometry.extrusion.extrudate_length", extrudate_length)?;
-                positive("geometry.extrusion.flow_rate", flow_rate)?;
-                if let Some(top) = height {
-                    if top.is_nan() || top <= h0 {
-                        return Err(SpecError::new(
-                            "geometry.extrusion.height",
-                            format!(
-                                "the mesh height {top} must exceed the die half-height H0 = {h0} \
-                                 (room for the swell; default {DEFAULT_EXTRUSION_HEIGHT} H0)"
-                            ),
-                        ));
-                    }
-                }
-                let [nx, ny] = self.numerics.mesh;
-                let fits = self.extrusion().is_some_and(|e| e.fits(nx, ny));
-                if nx > 0 && ny > 0 && !fits {
-                    return Err(SpecError::new(
-                        "numerics.mesh",
-                        format!(
-                            "{nx}×{ny} uniform elements put no grid line on the die exit x = 0 or \
-                             the die wall y = H0: choose n_x with L_w/(L_w + L_fs)·n_x and n_y with \
-                             H0/height·n_y whole numbers"
-                        ),
-                    ));
-                }
-                Ok(())
-            }
+            Geometry::Extrusion { .. } => self.validate_extrusion_geometry(),
             Geometry::CylinderChannel {
                 radius,
                 h,
@@ -421,33 +382,6 @@ impl CaseSpec {
         Ok(())
     }
 
-    /// What an extrusion runs with: XFEM (the free surface is cut like the particles), the weak
-    /// rigid-body condition and the lab frame (the die and the inflow stay put), a uniform mesh.
-    fn validate_extrusion_numerics(&self) -> Result<(), SpecError> {
-        let n = &self.numerics;
-        let not_with = |field: &str, what: &str| {
-            Err(SpecError::new(
-                field,
-                format!(
-                    "{what} is not available with a free surface (extrusion); remove the field"
-                ),
-            ))
-        };
-        if !n.method.is_xfem() {
-            return not_with("numerics.method", "the fictitious domain method");
-        }
-        if n.rigid_condition != RigidCondition::Weak {
-            return not_with("numerics.rigid_condition", "the multiplier condition");
-        }
-        if n.frame != FrameChoice::Lab || n.frame_velocity != 0.0 || n.frame_rotation != 0.0 {
-            return not_with("numerics.frame", "a moving frame");
-        }
-        if n.grading != 1.0 {
-            return not_with("numerics.grading", "a graded mesh");
-        }
-        Ok(())
-    }
-
     fn validate_particles(&self) -> Result<(), SpecError> {
         let Some(p) = &self.particles else {
             return match self.geometry {
@@ -560,24 +494,7 @@ impl CaseSpec {
                 check_pairs(&positions, a, None, layout_field)
             }
             Geometry::Extrusion { .. } => {
-                let Some(e) = self.extrusion() else {
-                    return Ok(());
-                };
-                for (i, q) in positions.iter().enumerate() {
-                    let inside = q[0] - a > -e.die_length && q[0] <= 0.0 && q[1] - a > 0.0;
-                    if !inside || e.die_wall_gap(*q, a) <= slack {
-                        return Err(SpecError::new(
-                            layout_field,
-                            format!(
-                                "particle {i} at ({}, {}) must start inside the die, clear of its \
-                                 wall, the inflow and the symmetry line: −L_w + a < x ≤ 0, \
-                                 a < y < H0 − a with L_w = {}, H0 = {}, a = {a}",
-                                q[0], q[1], e.die_length, e.h0
-                            ),
-                        ));
-                    }
-                }
-                check_pairs(&positions, a, None, layout_field)
+                self.validate_extrusion_particles(&positions, a, layout_field)
             }
             Geometry::CylinderChannel { .. } => Ok(()),
         }
@@ -585,7 +502,7 @@ impl CaseSpec {
 }
 
 /// Rejects pairs of particles that overlap (periodic in x with period `period`).
-fn check_pairs(
+pub(super) fn check_pairs(
     positions: &[[f64; 2]],
     a: f64,
     period: Option<f64>,

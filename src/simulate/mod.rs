@@ -288,12 +288,7 @@ impl Simulation {
         if let (Some(s), Some(change)) = (self.stepper.surface(), self.stepper.surface_change()) {
             sample.surface = Some(SurfaceSample {
                 change,
-                profile: s
-                    .nodes()
-                    .iter()
-                    .zip(s.heights())
-                    .map(|(&x, &h)| [x, h])
-                    .collect(),
+                profile: s.profile(),
             });
         }
         sample

@@ -84,12 +84,7 @@ pub fn run_case(case: &CaseSpec, obs: &mut dyn CaseObserver) -> CaseResult {
         if let Some(u) = sim.undisturbed() {
             let s = &u.surface;
             obs.on_undisturbed_surface(&UndisturbedSurface {
-                profile: s
-                    .nodes()
-                    .iter()
-                    .zip(s.heights())
-                    .map(|(&x, &h)| [x, h])
-                    .collect(),
+                profile: s.profile(),
                 swell: u.swell(),
                 steps: u.steps,
                 steady: u.steady,

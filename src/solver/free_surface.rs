@@ -16,6 +16,7 @@
 //!   stretched vertically so that the surface of one configuration lands on the next, the
 //!   symmetry line and the mesh top fixed.
 
+use crate::fem::element::q2;
 use crate::mesh::Mesh;
 use crate::solver::ale::{stencil_at, AleMap, Remap, StencilWeights};
 use crate::solver::bdf::Bdf2;
@@ -81,6 +82,11 @@ impl HeightFunction {
     /// The die half-height H0.
     pub fn h0(&self) -> f64 {
         self.h0
+    }
+
+    /// (x, H) at the nodes.
+    pub fn profile(&self) -> Vec<[f64; 2]> {
+        self.x.iter().zip(&self.h).map(|(&x, &h)| [x, h]).collect()
     }
 
     /// The largest height (the swell is max H / H0).
@@ -259,6 +265,31 @@ pub fn stretch_displacement(
                 to + (y - from) * (top - to) / (top - from)
             };
             [0.0, moved - y]
+        })
+        .collect()
+}
+
+/// The flow's `velocity` (at the Q2 nodes of `mesh`) at the nodes of `surface`, for its kinematic
+/// step; `Err((x, H))` at the first node that lies outside the mesh or at or above `top`.
+pub fn velocity_on(
+    mesh: &Mesh,
+    velocity: &[[f64; 2]],
+    surface: &HeightFunction,
+    top: f64,
+) -> Result<Vec<[f64; 2]>, (f64, f64)> {
+    surface
+        .nodes()
+        .iter()
+        .zip(surface.heights())
+        .map(|(&x, &y)| {
+            let (e, xi) = mesh.locate([x, y]).filter(|_| y < top).ok_or((x, y))?;
+            let (n, _) = q2(xi);
+            let mut v = [0.0; 2];
+            for (k, &node) in mesh.elements[e].iter().enumerate() {
+                v[0] += n[k] * velocity[node][0];
+                v[1] += n[k] * velocity[node][1];
+            }
+            Ok(v)
         })
         .collect()
 }

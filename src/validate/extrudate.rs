@@ -11,7 +11,6 @@
 //! (the thesis' 10⁻⁷); the swell ratio is H_max/H0. Published (Table 6.3, De = 0): 1.188 on
 //! the thesis' meshes M2–M4, the boundary-fitted reference and Crochet & Keunings alike.
 
-use crate::fem::element::q2;
 use crate::mesh::{Axis, Mesh, Side};
 use crate::rheology::{giesekus_steady_shear_conformation, Sym2};
 use crate::solver::ale::Remap;
@@ -20,7 +19,9 @@ use crate::solver::constitutive_projection::sym_at;
 use crate::solver::constitutive_stress::Coupling;
 use crate::solver::cutcells::{surface_cuts, CutError};
 use crate::solver::flow::FlowFactorization;
-use crate::solver::free_surface::{stretch_map, HeightFunction, SURFACE_STRESS_GHOST_PENALTY};
+use crate::solver::free_surface::{
+    stretch_map, velocity_on, HeightFunction, SURFACE_STRESS_GHOST_PENALTY,
+};
 use crate::solver::viscoelastic::{
     HistoryMap, ViscoelasticError, ViscoelasticFlow, ViscoelasticParams,
 };
@@ -302,24 +303,14 @@ pub fn swell(grid: SwellMesh, de: f64, dt: f64, t_max: f64) -> Result<SwellRun, 
         flow.move_particles(Vec::new(), cuts, history)
             .map_err(failed(steps))?;
         flow.step(&|_| [0.0, 0.0]).map_err(failed(steps))?;
-        let velocity = flow.velocity();
-        let mut u = Vec::with_capacity(predicted.nodes().len());
-        for (&x, &y) in predicted.nodes().iter().zip(predicted.heights()) {
-            let Some((e, xi)) = mesh.locate([x, y]) else {
-                return Err(SwellError::Escaped {
-                    step: steps,
-                    x,
-                    height: y,
-                });
-            };
-            let (n, _) = q2(xi);
-            let mut v = [0.0; 2];
-            for (k, &node) in mesh.elements[e].iter().enumerate() {
-                v[0] += n[k] * velocity[node][0];
-                v[1] += n[k] * velocity[node][1];
-            }
-            u.push(v);
-        }
+        // (the mesh height bounds the surface below: the check after the step catches it)
+        let u = velocity_on(&mesh, flow.velocity(), &predicted, f64::INFINITY).map_err(
+            |(x, height)| SwellError::Escaped {
+                step: steps,
+                x,
+                height,
+            },
+        )?;
         of_nm1 = Some(std::mem::replace(&mut of_n, predicted));
         change = surface.advance(&u, dt, dt);
         steps += 1;

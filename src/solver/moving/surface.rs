@@ -5,12 +5,11 @@
 //! on the predicted surface (step 5).
 
 use super::MovingError;
-use crate::fem::element::q2;
 use crate::geometry::Extrusion;
 use crate::mesh::{Mesh, Side};
 use crate::particles::Contact;
 use crate::rheology::{giesekus_steady_shear_conformation, Sym2};
-use crate::solver::free_surface::{stretch_displacement, surface_gap, HeightFunction};
+use crate::solver::free_surface::{stretch_displacement, surface_gap, velocity_on, HeightFunction};
 use crate::solver::viscoelastic::{ViscoelasticError, ViscoelasticFlow};
 
 /// The surface of a flow and the configuration its fields belong to.
@@ -152,19 +151,8 @@ impl Surface {
         dt_prev: f64,
         step: usize,
     ) -> Result<f64, MovingError> {
-        let mut u = Vec::with_capacity(predicted.nodes().len());
-        for (&x, &y) in predicted.nodes().iter().zip(predicted.heights()) {
-            let Some((e, xi)) = mesh.locate([x, y]).filter(|_| y < self.extrusion.top) else {
-                return Err(MovingError::SurfaceEscaped { step, x, height: y });
-            };
-            let (n, _) = q2(xi);
-            let mut v = [0.0; 2];
-            for (k, &node) in mesh.elements[e].iter().enumerate() {
-                v[0] += n[k] * velocity[node][0];
-                v[1] += n[k] * velocity[node][1];
-            }
-            u.push(v);
-        }
+        let u = velocity_on(mesh, velocity, &predicted, self.extrusion.top)
+            .map_err(|(x, height)| MovingError::SurfaceEscaped { step, x, height })?;
         self.fields_at = predicted;
         self.change = self.height.advance(&u, dt, dt_prev);
         Ok(self.change)
