@@ -5,8 +5,11 @@
 //! - [`SolverKind::Lblt`]: symmetric indefinite LBLᵀ (supernodal, Bunch–Kaufman pivoting inside
 //!   supernodes) for symmetric systems — the Stokes/DEVSS-G saddle-point matrix assembled
 //!   symmetrically. About 10× less memory and time than LU on our patterns (see docs/performance.md).
-//! - [`SolverKind::Lu`]: general sparse LU with partial pivoting, for non-symmetric systems
-//!   (SUPG transport) and as a cross-check.
+//! - [`SolverKind::Lu`]: non-symmetric systems. With an elimination order given
+//!   ([`DirectSolver::analyze_blocked`], [`DirectSolver::analyze_with_order`]: a symmetric pattern,
+//!   the flow's) GMRES preconditioned by the LBLᵀ of the symmetric part (`symmetric_part`), with
+//!   faer's LU as the fallback; without one (SUPG transport) faer's general sparse LU with partial
+//!   pivoting.
 
 use dyn_stack::{MemBuffer, MemStack, StackReq};
 use faer::linalg::cholesky::lblt::factor::LbltParams;
@@ -25,10 +28,12 @@ use super::sparse::SparseMatrix;
 
 mod order;
 mod schur;
+mod symmetric_part;
 mod trisolve;
 
 use order::block_amd_ordering;
 pub use order::DofBlocks;
+use symmetric_part::SymmetricPart;
 
 /// Which factorization to use.
 #[derive(Debug, Clone, Copy, PartialEq, Eq)]
@@ -71,6 +76,8 @@ enum Backend {
         symbolic: SymbolicLu<usize>,
         numeric: NumericLu<usize, f64>,
     },
+    /// GMRES preconditioned by the LBLᵀ of the symmetric part (see [`SymmetricPart`]).
+    SymmetricPart(Box<SymmetricPart>),
 }
 
 /// faer's default supernode relaxation: two adjacent supernodes of n columns in all are merged
@@ -95,6 +102,7 @@ pub struct DirectSolver {
     scale: Vec<f64>,
     scaled: Option<SparseMatrix>,
     last_polish: usize,
+    lu_fallbacks: usize,
     /// LBLᵀ: the dof at each position of the elimination order of the last factorization (the
     /// pivoting changes it), and a work vector by position.
     at: Vec<usize>,
@@ -197,21 +205,14 @@ impl DirectSolver {
                     req,
                 )
             }
-            SolverKind::Lu => {
-                let symbolic = factorize_symbolic_lu(a.symbolic(), LuSymbolicParams::default())
-                    .map_err(|e| SolveError::Symbolic(format!("{e:?}")))?;
-                let req = StackReq::any_of(&[
-                    symbolic.factorize_numeric_lu_scratch::<f64>(par, Default::default()),
-                    symbolic.solve_in_place_scratch::<f64>(1, par),
-                ]);
-                (
-                    Backend::Lu {
-                        symbolic,
-                        numeric: NumericLu::new(),
-                    },
-                    req,
-                )
-            }
+            SolverKind::Lu => match order {
+                // the caller's order is the LBLᵀ's: a matrix whose pattern is symmetric
+                Some((fwd, _)) => (
+                    Backend::SymmetricPart(Box::new(SymmetricPart::analyze(a, fwd)?)),
+                    StackReq::EMPTY,
+                ),
+                None => lu_backend(a)?,
+            },
         };
         Ok(Self {
             backend,
@@ -221,6 +222,7 @@ impl DirectSolver {
             scale: Vec::new(),
             scaled: None,
             last_polish: 0,
+            lu_fallbacks: 0,
             at: Vec::new(),
             work: Vec::new(),
         })
@@ -236,7 +238,7 @@ impl DirectSolver {
     pub fn kind(&self) -> SolverKind {
         match self.backend {
             Backend::Lblt { .. } => SolverKind::Lblt,
-            Backend::Lu { .. } => SolverKind::Lu,
+            Backend::Lu { .. } | Backend::SymmetricPart(_) => SolverKind::Lu,
         }
     }
 
@@ -250,6 +252,7 @@ impl DirectSolver {
         );
         // Equilibrate: cut elements with tiny fluid parts spread the entries over many orders of
         // magnitude, which the supernode-local pivoting of LBLᵀ handles poorly.
+        let original = a;
         a.equilibration(&mut self.scale);
         let scaled = self.scaled.get_or_insert_with(|| a.clone());
         a.scaled_into(&self.scale, scaled);
@@ -286,6 +289,12 @@ impl DirectSolver {
                     .factorize_numeric_lu(numeric, a.as_faer(), Par::Seq, stack, Default::default())
                     .map_err(|e| SolveError::Numeric(format!("{e:?}")))?;
             }
+            Backend::SymmetricPart(sp) => {
+                if sp.factor(a).is_err() {
+                    // a symmetric part the LBLᵀ cannot factor: factor A itself
+                    return self.fall_back_to_lu(original);
+                }
+            }
         }
         self.factored = true;
         if matches!(self.backend, Backend::Lblt { .. }) {
@@ -314,15 +323,18 @@ impl DirectSolver {
         }
         let n = self.n;
         rhs.iter_mut().zip(&self.scale).for_each(|(b, d)| *b *= d);
-        let stack = MemStack::new(&mut self.buffer);
-        let x = MatMut::from_column_major_slice_mut(&mut *rhs, n, 1);
-        if let Backend::Lu { symbolic, numeric } = &self.backend {
-            LuRef::new_unchecked(symbolic, numeric).solve_in_place_with_conj(
-                Conj::No,
-                x,
-                Par::Seq,
-                stack,
-            );
+        match &mut self.backend {
+            Backend::Lu { symbolic, numeric } => {
+                let x = MatMut::from_column_major_slice_mut(&mut *rhs, n, 1);
+                LuRef::new_unchecked(symbolic, numeric).solve_in_place_with_conj(
+                    Conj::No,
+                    x,
+                    Par::Seq,
+                    MemStack::new(&mut self.buffer),
+                );
+            }
+            Backend::SymmetricPart(sp) => sp.solve_in_place(rhs)?,
+            Backend::Lblt { .. } => unreachable!("solved above"),
         }
         rhs.iter_mut().zip(&self.scale).for_each(|(x, d)| *x *= d);
         Ok(())
@@ -339,9 +351,34 @@ impl DirectSolver {
         x: &mut [f64],
         tol: f64,
     ) -> Result<f64, SolveError> {
-        let (res, polish) = checked_solve(a, b, x, tol, &mut |v| self.solve_in_place(v))?;
+        let solved = checked_solve(a, b, x, tol, &mut |v| self.solve_in_place(v));
+        let (res, polish) = match solved {
+            Err(SolveError::Inaccurate { .. })
+                if matches!(self.backend, Backend::SymmetricPart(_)) =>
+            {
+                // the symmetric part no longer preconditions A well enough: factor A itself
+                self.fall_back_to_lu(a)?;
+                checked_solve(a, b, x, tol, &mut |v| self.solve_in_place(v))?
+            }
+            other => other?,
+        };
         self.last_polish = polish;
         Ok(res)
+    }
+
+    /// Replaces the symmetric-part preconditioner by faer's LU of `a` (for good: a pattern whose
+    /// symmetric part failed once is factored whole from then on) and factors `a`.
+    fn fall_back_to_lu(&mut self, a: &SparseMatrix) -> Result<(), SolveError> {
+        let (backend, req) = lu_backend(a)?;
+        self.backend = backend;
+        self.buffer = MemBuffer::new(req);
+        self.lu_fallbacks += 1;
+        self.factor(a)
+    }
+
+    /// How often the symmetric-part preconditioner gave way to a whole LU (0 or 1).
+    pub fn lu_fallbacks(&self) -> usize {
+        self.lu_fallbacks
     }
 
     /// GMRES iterations of the last [`solve_checked`](Self::solve_checked) (0 when the direct
@@ -349,6 +386,23 @@ impl DirectSolver {
     pub fn last_polish_iterations(&self) -> usize {
         self.last_polish
     }
+}
+
+/// faer's sparse LU (COLAMD column order, partial pivoting) for the pattern of `a`.
+fn lu_backend(a: &SparseMatrix) -> Result<(Backend, StackReq), SolveError> {
+    let symbolic = factorize_symbolic_lu(a.symbolic(), LuSymbolicParams::default())
+        .map_err(|e| SolveError::Symbolic(format!("{e:?}")))?;
+    let req = StackReq::any_of(&[
+        symbolic.factorize_numeric_lu_scratch::<f64>(Par::Seq, Default::default()),
+        symbolic.solve_in_place_scratch::<f64>(1, Par::Seq),
+    ]);
+    Ok((
+        Backend::Lu {
+            symbolic,
+            numeric: NumericLu::new(),
+        },
+        req,
+    ))
 }
 
 /// Solves A x = b with an (approximate) inverse `solve` of A, which replaces its argument b by
@@ -440,6 +494,62 @@ mod tests {
             }
         }
         a
+    }
+
+    /// [`saddle`] with its velocity block scaled by `sym` and made non-symmetric: `skew` added
+    /// above the velocity diagonal and subtracted below it (the symmetric part is the scaled
+    /// `saddle`).
+    fn skewed_saddle(skew: f64, sym: f64) -> SparseMatrix {
+        let mut a = saddle(1.0);
+        for j in 0..6usize {
+            for i in j.saturating_sub(1)..(j + 2).min(6) {
+                let p = a.position(i, j);
+                a.values[p] *= sym;
+            }
+        }
+        for i in 0..5 {
+            a.add(i, i + 1, skew);
+            a.add(i + 1, i, -skew);
+        }
+        a
+    }
+
+    #[test]
+    fn a_non_symmetric_system_is_solved_through_its_symmetric_part_or_by_lu() {
+        // residual tolerance: round-off on an 8×8 well-conditioned system
+        const TOL: f64 = 1e-13;
+        let order: Vec<usize> = (0..8).collect();
+        let b: Vec<f64> = (0..8).map(|i| (i as f64).cos() + 0.5).collect();
+        let reference = |a: &SparseMatrix| {
+            let mut lu = DirectSolver::analyze(a, SolverKind::Lu).unwrap();
+            lu.factor(a).unwrap();
+            let mut x = b.clone();
+            lu.solve_in_place(&mut x).unwrap();
+            x
+        };
+        // a positive-definite symmetric part: GMRES converges, no LU
+        let a = skewed_saddle(0.8, 1.0);
+        let mut s = DirectSolver::analyze_with_order(&a, SolverKind::Lu, &order).unwrap();
+        s.factor(&a).unwrap();
+        let mut x = vec![0.0; 8];
+        assert!(s.solve_checked(&a, &b, &mut x, TOL).unwrap() < TOL);
+        assert!((1..=8).contains(&s.last_polish_iterations()));
+        assert_eq!(s.lu_fallbacks(), 0);
+        let x_lu = reference(&a);
+        for (u, v) in x.iter().zip(&x_lu) {
+            assert!((u - v).abs() < 1e-12, "{u} vs {v}");
+        }
+        // a skew velocity block: the symmetric part [[0, Bᵀ], [B, 0]] is singular, the solver
+        // factors A by LU
+        let a = skewed_saddle(1.0, 0.0);
+        let mut s = DirectSolver::analyze_with_order(&a, SolverKind::Lu, &order).unwrap();
+        s.factor(&a).unwrap();
+        assert!(s.solve_checked(&a, &b, &mut x, TOL).unwrap() < TOL);
+        assert_eq!(s.lu_fallbacks(), 1);
+        let x_lu = reference(&a);
+        for (u, v) in x.iter().zip(&x_lu) {
+            assert!((u - v).abs() < 1e-10, "{u} vs {v}");
+        }
     }
 
     #[test]

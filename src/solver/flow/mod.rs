@@ -436,7 +436,9 @@ impl Stokes {
                     SolverKind::Lblt,
                     &self.dof_blocks(),
                 )?,
-                SolverKind::Lu => DirectSolver::analyze(&self.matrix, SolverKind::Lu)?,
+                SolverKind::Lu => {
+                    DirectSolver::analyze_blocked(&self.matrix, SolverKind::Lu, &self.dof_blocks())?
+                }
             });
             symbolic = t1.elapsed().as_secs_f64();
         }
