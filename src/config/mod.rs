@@ -23,7 +23,8 @@ mod validate;
 
 pub use case::{
     CaseSpec, Fluid, FollowMesh, FrameChoice, Geometry, HistoryRemap, InterfaceRule, Layout, Model,
-    Numerics, Output, Particles, Stop, StressCoupling, DEFAULT_QUADTREE_LEVEL,
+    Numerics, Output, Particles, Stop, StressCoupling, DEFAULT_EXTRUSION_HEIGHT,
+    DEFAULT_QUADTREE_LEVEL,
 };
 pub use error::{ConfigError, SpecError};
 pub use limits::{

@@ -28,7 +28,7 @@ use crate::solver::free_surface::STEADY_HEIGHT_TOL;
 use serde_json::{json, Value};
 
 use super::{ParticleState, Sample};
-use crate::config::{CaseSpec, Geometry};
+use crate::config::{CaseSpec, Geometry, DEFAULT_EXTRUSION_HEIGHT};
 use crate::geometry::layout;
 
 /// Elements across the narrowest gap below which a decided outcome is flagged as possibly set by
@@ -416,6 +416,27 @@ impl Classifier {
                          impossible state, the time step carried it through a cylinder",
                         s.step
                     )
+                    })
+                }
+                Geometry::Extrusion {
+                    h0,
+                    die_length,
+                    extrudate_length,
+                    height,
+                    ..
+                } => {
+                    // the mesh's rectangle, and below the die's wall inside the die
+                    let top = height.unwrap_or(DEFAULT_EXTRUSION_HEIGHT * h0);
+                    let in_mesh = (-die_length..=extrudate_length).contains(&p.x)
+                        && (0.0..=top).contains(&p.y);
+                    let in_die_wall = p.x < 0.0 && p.y > h0;
+                    (!in_mesh || in_die_wall).then(|| {
+                        format!(
+                            "step {}: particle {i} at ({:.6e}, {:.6e}) is outside the extrusion's \
+                             fluid ([−{die_length}, {extrudate_length}] × [0, {top}], below y = \
+                             {h0} in the die): an impossible state, the run diverged",
+                            s.step, p.x, p.y
+                        )
                     })
                 }
                 _ => None,

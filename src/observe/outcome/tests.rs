@@ -359,4 +359,22 @@ fn an_extrusion_is_steady_by_its_surface_and_a_particle_runs_to_the_outflow() {
         .unwrap();
     assert_eq!(o.kind, OutcomeKind::Exited);
     assert_eq!(o.final_state["separation"], json!([-0.1]));
+    // a state blown far out of the mesh (the Wi = 0.5 run at a/3: x ≈ 1e24) diverged; it is
+    // no wall contact
+    let mut blown = Classifier::new(&extrusion(
+        json!({"radius": 0.1, "layout": {"explicit": {"positions": [[-2.3, 0.8]]}}}),
+    ));
+    let p = ParticleState {
+        x: 1e24,
+        y: -3e23,
+        u: 0.0,
+        v: 0.0,
+        omega: 0.0,
+        theta: 0.0,
+        separation: None,
+    };
+    let o = blown.push(&sample(1, vec![p], 1e-3)).expect("decided");
+    assert_eq!(o.kind, OutcomeKind::Diverged);
+    let reason = o.final_state["reason"].as_str().unwrap();
+    assert!(reason.contains("outside the extrusion's fluid"), "{reason}");
 }
