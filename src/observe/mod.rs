@@ -139,6 +139,12 @@ pub trait CaseObserver {
     /// state before it): a contact the outcome must record, though the last state's overlap may
     /// still be below the outcome rules' threshold.
     fn on_contact(&mut self, _contact: &crate::particles::Contact, _t: f64) {}
+    /// The step after time `t` failed (`error`) from a state whose particles already touch
+    /// (`contact`: any overlap, below the outcome rules' threshold too): the film between them
+    /// has closed, and the case ends in that contact rather than as a failure.
+    fn on_contact_at_failure(&mut self, contact: &crate::particles::Contact, t: f64, _error: &str) {
+        self.on_contact(contact, t);
+    }
     /// The undisturbed steady free surface H̄ of an extrusion (before the first step;
     /// separations are measured from it).
     fn on_undisturbed_surface(&mut self, _surface: &UndisturbedSurface) {}

@@ -3,7 +3,8 @@
 //! 1. `diverged`: a non-finite particle state.
 //! 2. `wall_contact`: a particle penetrates a wall by more than [`CONTACT_OVERLAP`]·a.
 //! 3. `jammed`: two particles overlap by more than [`CONTACT_OVERLAP`]·a — or would at the positions
-//!    predicted for the next step, where the run stops ([`Classifier::contact`]; `wall_contact` alike).
+//!    predicted for the next step, where the run stops ([`Classifier::contact`]; `wall_contact` alike),
+//!    or touch at all where the next step failed ([`Classifier::contact_at_failure`]).
 //! 4. `string` / `steady`: every particle's ω* = ω/γ̇ changes at a rate |dω*/dt*| below [`STEADY_OMEGA_RATE`]
 //!    (the thesis' [`STEADY_OMEGA_TOL`] per step of [`STEADY_REFERENCE_DT`], so any step size tests the same)
 //!    (thesis 5.7.2) for [`STEADY_HOLD_STEPS`] consecutive steps; `string` if N ≥ 2 and the particles form
@@ -229,6 +230,27 @@ impl Classifier {
     /// for two particles, `wall_contact` for a wall, unless the outcome is already decided; the
     /// final state keeps the last computed positions and says what was predicted (`contact`).
     pub fn contact(&mut self, contact: &Contact, t: f64) -> Option<Outcome> {
+        self.contact_described(contact, t, format!("{contact} at the predicted positions"))
+    }
+
+    /// Records a contact of the last computed positions (any overlap) from which the next step
+    /// failed with `error` — the flow solve can fail as the film between touching particles
+    /// closes, before the overlap reaches the rules' threshold: `jammed` / `wall_contact` as in
+    /// [`contact`](Self::contact), with the failure in `final_state.contact`.
+    pub fn contact_at_failure(
+        &mut self,
+        contact: &Contact,
+        t: f64,
+        error: &str,
+    ) -> Option<Outcome> {
+        self.contact_described(
+            contact,
+            t,
+            format!("{contact} at the last computed positions; the next step failed: {error}"),
+        )
+    }
+
+    fn contact_described(&mut self, contact: &Contact, t: f64, what: String) -> Option<Outcome> {
         if self.decided.is_some() {
             return None;
         }
@@ -239,7 +261,7 @@ impl Classifier {
             Contact::Outflow { .. } => OutcomeKind::Exited,
         };
         let mut outcome = self.outcome(kind, t, None);
-        outcome.final_state["contact"] = json!(format!("{contact} at the predicted positions"));
+        outcome.final_state["contact"] = json!(what);
         self.decided = Some(outcome.clone());
         Some(outcome)
     }

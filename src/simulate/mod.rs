@@ -22,9 +22,11 @@ pub use settings::Settings;
 pub use undisturbed::Undisturbed;
 
 use crate::config::{CaseSpec, Geometry};
+use crate::geometry::Confinement;
 use crate::geometry::{ConfinedShear, CouetteError, CouetteGeometry, RotatingCouette, SetUp};
 use crate::mesh::resolution::{elements_between, narrowest_gap};
 use crate::observe::{FieldSnapshot, Sample, SurfaceSample};
+use crate::particles::Contact;
 use crate::solver::moving::{
     ComputationalMesh, MovingCheckpoint, MovingError, MovingParticles, StepOutcome,
 };
@@ -292,6 +294,15 @@ impl Simulation {
             });
         }
         sample
+    }
+
+    /// A contact of the particles as they are now (after the last step taken) at any overlap,
+    /// however small: below [`crate::particles::CONTACT_OVERLAP`] the run goes on, but a step that
+    /// fails from such a state has met the contact (the flow solve fails as the film closes).
+    pub fn touching(&self) -> Option<Contact> {
+        let x = &self.stepper.state().x;
+        let radius = vec![self.radius; x.len()];
+        self.stepper.domain().contact(x, &radius, 0.0)
     }
 
     /// The fields now on the Q2 nodes, in the lab frame.

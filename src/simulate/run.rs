@@ -99,7 +99,15 @@ pub fn run_case(case: &CaseSpec, obs: &mut dyn CaseObserver) -> CaseResult {
     }
     while !sim.at_end() {
         let contact = match sim.step() {
-            Err(e) => return ended_by(e, sim.steps(), sim.time()),
+            Err(e) => {
+                // a failed solve from touching particles is their contact, not a fault
+                if let Some(c) = sim.touching().filter(|_| !diverged(&e)) {
+                    let error = format!("step {}, {}: {e}", sim.steps() + 1, e.phase());
+                    obs.on_contact_at_failure(&c, sim.time(), &error);
+                    return finished(&sim);
+                }
+                return ended_by(e, sim.steps(), sim.time());
+            }
             Ok(StepOutcome::Contact(c)) => {
                 obs.on_contact(&c, sim.time());
                 return finished(&sim);

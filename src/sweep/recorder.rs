@@ -194,6 +194,10 @@ impl CaseObserver for Recorder<'_> {
         self.classifier.contact(contact, t);
     }
 
+    fn on_contact_at_failure(&mut self, contact: &crate::particles::Contact, t: f64, error: &str) {
+        self.classifier.contact_at_failure(contact, t, error);
+    }
+
     fn on_step(&mut self, sample: &Sample) -> Control {
         self.classifier.push(sample);
         if sample.step.is_multiple_of(self.spec.output.sample_every) {

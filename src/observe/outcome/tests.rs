@@ -302,6 +302,29 @@ fn a_predicted_contact_ends_the_run_as_a_contact() {
         c.contact(&overlap, 0.1).is_none(),
         "the first decision stands"
     );
+    // a step that failed from touching particles (the §5.7.4 β = 0.6 run at a/12: an overlap of
+    // 3.9e-4 a, below the rules' threshold, then the flow solve failed) is their contact
+    let mut c = Classifier::new(&spec);
+    let touching = crate::particles::Contact::Overlap {
+        i: 1,
+        j: 2,
+        gap: -3.9e-5,
+    };
+    let o = c
+        .contact_at_failure(
+            &touching,
+            143.79,
+            "step 3715, solve_flow: linear solve inaccurate",
+        )
+        .expect("decided by the contact");
+    assert_eq!(o.kind, OutcomeKind::Jammed);
+    let what = o.final_state["contact"].as_str().unwrap();
+    assert!(
+        what.contains("particles 1 and 2 in contact")
+            && what.contains("last computed positions")
+            && what.contains("solve_flow"),
+        "{what}"
+    );
 }
 
 /// An extrusion: without particles the case is steady once its surface moves less than the
