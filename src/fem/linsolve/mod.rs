@@ -11,6 +11,8 @@
 //!   faer's LU as the fallback; without one (SUPG transport) faer's general sparse LU with partial
 //!   pivoting.
 
+use std::time::Instant;
+
 use dyn_stack::{MemBuffer, MemStack, StackReq};
 use faer::linalg::cholesky::lblt::factor::LbltParams;
 use faer::perm::PermRef;
@@ -103,6 +105,10 @@ pub struct DirectSolver {
     scaled: Option<SparseMatrix>,
     last_polish: usize,
     lu_fallbacks: usize,
+    /// The symmetric-part path's choice against a whole LU, by measurement.
+    probe: Probe,
+    /// Seconds of the last numeric factorization.
+    factor_time: f64,
     /// LBLᵀ: the dof at each position of the elimination order of the last factorization (the
     /// pivoting changes it), and a work vector by position.
     at: Vec<usize>,
@@ -223,6 +229,8 @@ impl DirectSolver {
             scaled: None,
             last_polish: 0,
             lu_fallbacks: 0,
+            probe: Probe::Watching,
+            factor_time: 0.0,
             at: Vec::new(),
             work: Vec::new(),
         })
@@ -253,6 +261,21 @@ impl DirectSolver {
         // Equilibrate: cut elements with tiny fluid parts spread the entries over many orders of
         // magnitude, which the supernode-local pivoting of LBLᵀ handles poorly.
         let original = a;
+        if let Probe::Pending { symmetric_cost } = self.probe {
+            // time one whole LU against the symmetric part's last factorization and solve
+            let (backend, req) = lu_backend(a)?;
+            let Backend::SymmetricPart(parked) = std::mem::replace(&mut self.backend, backend)
+            else {
+                unreachable!("a probe is pending on the symmetric-part path only")
+            };
+            self.buffer = MemBuffer::new(req);
+            self.probe = Probe::Probing {
+                symmetric_cost,
+                parked,
+            };
+        }
+        // (the LU's symbolic analysis above is paid once: not part of the comparison)
+        let start = Instant::now();
         a.equilibration(&mut self.scale);
         let scaled = self.scaled.get_or_insert_with(|| a.clone());
         a.scaled_into(&self.scale, scaled);
@@ -297,6 +320,7 @@ impl DirectSolver {
             }
         }
         self.factored = true;
+        self.factor_time = start.elapsed().as_secs_f64();
         if matches!(self.backend, Backend::Lblt { .. }) {
             self.at = self.dof_at_positions();
             self.work.resize(self.n, 0.0);
@@ -351,18 +375,40 @@ impl DirectSolver {
         x: &mut [f64],
         tol: f64,
     ) -> Result<f64, SolveError> {
+        let start = Instant::now();
         let solved = checked_solve(a, b, x, tol, &mut |v| self.solve_in_place(v));
         let (res, polish) = match solved {
             Err(SolveError::Inaccurate { .. })
                 if matches!(self.backend, Backend::SymmetricPart(_)) =>
             {
                 // the symmetric part no longer preconditions A well enough: factor A itself
+                self.probe = Probe::Decided;
                 self.fall_back_to_lu(a)?;
                 checked_solve(a, b, x, tol, &mut |v| self.solve_in_place(v))?
             }
             other => other?,
         };
         self.last_polish = polish;
+        let cost = self.factor_time + start.elapsed().as_secs_f64();
+        match std::mem::replace(&mut self.probe, Probe::Decided) {
+            Probe::Watching
+                if polish > PROBE_ITERATIONS
+                    && matches!(self.backend, Backend::SymmetricPart(_)) =>
+            {
+                self.probe = Probe::Pending {
+                    symmetric_cost: cost,
+                }
+            }
+            Probe::Probing {
+                symmetric_cost,
+                parked,
+            } if symmetric_cost < cost => {
+                // the symmetric part was cheaper: back to it
+                self.backend = Backend::SymmetricPart(parked);
+            }
+            Probe::Probing { .. } => self.lu_fallbacks += 1,
+            other => self.probe = other,
+        }
         Ok(res)
     }
 
@@ -376,7 +422,8 @@ impl DirectSolver {
         self.factor(a)
     }
 
-    /// How often the symmetric-part preconditioner gave way to a whole LU (0 or 1).
+    /// How often the symmetric-part preconditioner gave way to a whole LU (0 or 1): it could not
+    /// be factored, GMRES missed the tolerance, or a timed LU was cheaper.
     pub fn lu_fallbacks(&self) -> usize {
         self.lu_fallbacks
     }
@@ -444,6 +491,26 @@ pub fn checked_solve(
     }
 }
 
+/// GMRES iterations on the symmetric part above which a whole LU is timed once against it (a
+/// few iterations always win; on small or strongly non-symmetric systems the LU may).
+const PROBE_ITERATIONS: usize = 5;
+
+/// Whether the symmetric-part path has been timed against a whole LU.
+enum Probe {
+    /// Few iterations so far: nothing to compare.
+    Watching,
+    /// The last solve took many iterations at `symmetric_cost` seconds (factor + solve): the
+    /// next factorization is a whole LU, timed.
+    Pending { symmetric_cost: f64 },
+    /// The LU is being timed; the symmetric part waits.
+    Probing {
+        symmetric_cost: f64,
+        parked: Box<SymmetricPart>,
+    },
+    /// Compared (or no comparison applies): the backend stays.
+    Decided,
+}
+
 /// Most GMRES iterations polishing a direct solve in [`DirectSolver::solve_checked`]; a good
 /// factorization as preconditioner needs a handful.
 pub const MAX_POLISH_ITERATIONS: usize = 30;
@@ -466,110 +533,4 @@ fn residual(a: &SparseMatrix, x: &[f64], b: &[f64], r: &mut [f64]) -> f64 {
 }
 
 #[cfg(test)]
-mod tests {
-    use super::*;
-    use crate::fem::sparse::PatternBuilder;
-
-    /// A small symmetric saddle-point matrix [[A, Bᵀ], [B, 0]] with A = tridiag(−1, 4, −1).
-    fn saddle(scale: f64) -> SparseMatrix {
-        let n = 6;
-        let mut pb = PatternBuilder::new(n + 2);
-        for i in 0..n - 1 {
-            pb.add_group(&[i, i + 1]);
-        }
-        pb.add_coupling(&[n], &[0, 1, 2]);
-        pb.add_coupling(&[n + 1], &[3, 4, 5]);
-        let mut a = pb.build();
-        for i in 0..n {
-            a.add(i, i, 4.0 * scale);
-            if i + 1 < n {
-                a.add(i, i + 1, -scale);
-                a.add(i + 1, i, -scale);
-            }
-        }
-        for (p, cols) in [(n, [0, 1, 2]), (n + 1, [3, 4, 5])] {
-            for c in cols {
-                a.add(p, c, 1.0);
-                a.add(c, p, 1.0);
-            }
-        }
-        a
-    }
-
-    /// [`saddle`] with its velocity block scaled by `sym` and made non-symmetric: `skew` added
-    /// above the velocity diagonal and subtracted below it (the symmetric part is the scaled
-    /// `saddle`).
-    fn skewed_saddle(skew: f64, sym: f64) -> SparseMatrix {
-        let mut a = saddle(1.0);
-        for j in 0..6usize {
-            for i in j.saturating_sub(1)..(j + 2).min(6) {
-                let p = a.position(i, j);
-                a.values[p] *= sym;
-            }
-        }
-        for i in 0..5 {
-            a.add(i, i + 1, skew);
-            a.add(i + 1, i, -skew);
-        }
-        a
-    }
-
-    #[test]
-    fn a_non_symmetric_system_is_solved_through_its_symmetric_part_or_by_lu() {
-        // residual tolerance: round-off on an 8×8 well-conditioned system
-        const TOL: f64 = 1e-13;
-        let order: Vec<usize> = (0..8).collect();
-        let b: Vec<f64> = (0..8).map(|i| (i as f64).cos() + 0.5).collect();
-        let reference = |a: &SparseMatrix| {
-            let mut lu = DirectSolver::analyze(a, SolverKind::Lu).unwrap();
-            lu.factor(a).unwrap();
-            let mut x = b.clone();
-            lu.solve_in_place(&mut x).unwrap();
-            x
-        };
-        // a positive-definite symmetric part: GMRES converges, no LU
-        let a = skewed_saddle(0.8, 1.0);
-        let mut s = DirectSolver::analyze_with_order(&a, SolverKind::Lu, &order).unwrap();
-        s.factor(&a).unwrap();
-        let mut x = vec![0.0; 8];
-        assert!(s.solve_checked(&a, &b, &mut x, TOL).unwrap() < TOL);
-        assert!((1..=8).contains(&s.last_polish_iterations()));
-        assert_eq!(s.lu_fallbacks(), 0);
-        let x_lu = reference(&a);
-        for (u, v) in x.iter().zip(&x_lu) {
-            assert!((u - v).abs() < 1e-12, "{u} vs {v}");
-        }
-        // a skew velocity block: the symmetric part [[0, Bᵀ], [B, 0]] is singular, the solver
-        // factors A by LU
-        let a = skewed_saddle(1.0, 0.0);
-        let mut s = DirectSolver::analyze_with_order(&a, SolverKind::Lu, &order).unwrap();
-        s.factor(&a).unwrap();
-        assert!(s.solve_checked(&a, &b, &mut x, TOL).unwrap() < TOL);
-        assert_eq!(s.lu_fallbacks(), 1);
-        let x_lu = reference(&a);
-        for (u, v) in x.iter().zip(&x_lu) {
-            assert!((u - v).abs() < 1e-10, "{u} vs {v}");
-        }
-    }
-
-    #[test]
-    fn lblt_and_lu_solve_saddle_point_and_refactor() {
-        // residual tolerance: round-off on an 8×8 well-conditioned system
-        const TOL: f64 = 1e-13;
-        for kind in [SolverKind::Lblt, SolverKind::Lu] {
-            let a = saddle(1.0);
-            let mut s = DirectSolver::analyze(&a, kind).unwrap();
-            let b: Vec<f64> = (0..8).map(|i| (i as f64).sin() + 1.0).collect();
-            let mut x = vec![0.0; 8];
-            s.factor(&a).unwrap();
-            assert!(s.solve_checked(&a, &b, &mut x, TOL).unwrap() < TOL);
-            // refactor with new values, same pattern
-            let a2 = saddle(3.0);
-            s.factor(&a2).unwrap();
-            assert!(
-                s.solve_checked(&a2, &b, &mut x, TOL).unwrap() < TOL,
-                "{kind:?}"
-            );
-        }
-    }
-}
+mod tests;

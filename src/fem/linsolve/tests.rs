@@ -1,0 +1,106 @@
+//! Tests of the direct solvers.
+use super::*;
+use crate::fem::sparse::PatternBuilder;
+
+/// A small symmetric saddle-point matrix [[A, Bᵀ], [B, 0]] with A = tridiag(−1, 4, −1).
+fn saddle(scale: f64) -> SparseMatrix {
+    let n = 6;
+    let mut pb = PatternBuilder::new(n + 2);
+    for i in 0..n - 1 {
+        pb.add_group(&[i, i + 1]);
+    }
+    pb.add_coupling(&[n], &[0, 1, 2]);
+    pb.add_coupling(&[n + 1], &[3, 4, 5]);
+    let mut a = pb.build();
+    for i in 0..n {
+        a.add(i, i, 4.0 * scale);
+        if i + 1 < n {
+            a.add(i, i + 1, -scale);
+            a.add(i + 1, i, -scale);
+        }
+    }
+    for (p, cols) in [(n, [0, 1, 2]), (n + 1, [3, 4, 5])] {
+        for c in cols {
+            a.add(p, c, 1.0);
+            a.add(c, p, 1.0);
+        }
+    }
+    a
+}
+
+/// [`saddle`] with its velocity block scaled by `sym` and made non-symmetric: `skew` added
+/// above the velocity diagonal and subtracted below it (the symmetric part is the scaled
+/// `saddle`).
+fn skewed_saddle(skew: f64, sym: f64) -> SparseMatrix {
+    let mut a = saddle(1.0);
+    for j in 0..6usize {
+        for i in j.saturating_sub(1)..(j + 2).min(6) {
+            let p = a.position(i, j);
+            a.values[p] *= sym;
+        }
+    }
+    for i in 0..5 {
+        a.add(i, i + 1, skew);
+        a.add(i + 1, i, -skew);
+    }
+    a
+}
+
+#[test]
+fn a_non_symmetric_system_is_solved_through_its_symmetric_part_or_by_lu() {
+    // residual tolerance: round-off on an 8×8 well-conditioned system
+    const TOL: f64 = 1e-13;
+    let order: Vec<usize> = (0..8).collect();
+    let b: Vec<f64> = (0..8).map(|i| (i as f64).cos() + 0.5).collect();
+    let reference = |a: &SparseMatrix| {
+        let mut lu = DirectSolver::analyze(a, SolverKind::Lu).unwrap();
+        lu.factor(a).unwrap();
+        let mut x = b.clone();
+        lu.solve_in_place(&mut x).unwrap();
+        x
+    };
+    // a positive-definite symmetric part: GMRES converges, no LU
+    let a = skewed_saddle(0.8, 1.0);
+    let mut s = DirectSolver::analyze_with_order(&a, SolverKind::Lu, &order).unwrap();
+    s.factor(&a).unwrap();
+    let mut x = vec![0.0; 8];
+    assert!(s.solve_checked(&a, &b, &mut x, TOL).unwrap() < TOL);
+    assert!((1..=8).contains(&s.last_polish_iterations()));
+    assert_eq!(s.lu_fallbacks(), 0);
+    let x_lu = reference(&a);
+    for (u, v) in x.iter().zip(&x_lu) {
+        assert!((u - v).abs() < 1e-12, "{u} vs {v}");
+    }
+    // a skew velocity block: the symmetric part [[0, Bᵀ], [B, 0]] is singular, the solver
+    // factors A by LU
+    let a = skewed_saddle(1.0, 0.0);
+    let mut s = DirectSolver::analyze_with_order(&a, SolverKind::Lu, &order).unwrap();
+    s.factor(&a).unwrap();
+    assert!(s.solve_checked(&a, &b, &mut x, TOL).unwrap() < TOL);
+    assert_eq!(s.lu_fallbacks(), 1);
+    let x_lu = reference(&a);
+    for (u, v) in x.iter().zip(&x_lu) {
+        assert!((u - v).abs() < 1e-10, "{u} vs {v}");
+    }
+}
+
+#[test]
+fn lblt_and_lu_solve_saddle_point_and_refactor() {
+    // residual tolerance: round-off on an 8×8 well-conditioned system
+    const TOL: f64 = 1e-13;
+    for kind in [SolverKind::Lblt, SolverKind::Lu] {
+        let a = saddle(1.0);
+        let mut s = DirectSolver::analyze(&a, kind).unwrap();
+        let b: Vec<f64> = (0..8).map(|i| (i as f64).sin() + 1.0).collect();
+        let mut x = vec![0.0; 8];
+        s.factor(&a).unwrap();
+        assert!(s.solve_checked(&a, &b, &mut x, TOL).unwrap() < TOL);
+        // refactor with new values, same pattern
+        let a2 = saddle(3.0);
+        s.factor(&a2).unwrap();
+        assert!(
+            s.solve_checked(&a2, &b, &mut x, TOL).unwrap() < TOL,
+            "{kind:?}"
+        );
+    }
+}
