@@ -253,13 +253,21 @@ impl DirectSolver {
     /// Numeric factorization of `a` (same pattern as at [`analyze`](Self::analyze)), reusing the
     /// symbolic analysis and the factor storage.
     pub fn factor(&mut self, a: &SparseMatrix) -> Result<(), SolveError> {
+        self.factor_scaled(a, true)
+    }
+
+    /// Like [`factor`](Self::factor) for a matrix equilibrated already (the symmetric part of an
+    /// equilibrated matrix): no second equilibration and copy.
+    pub(super) fn factor_equilibrated(&mut self, a: &SparseMatrix) -> Result<(), SolveError> {
+        self.factor_scaled(a, false)
+    }
+
+    fn factor_scaled(&mut self, a: &SparseMatrix, equilibrate: bool) -> Result<(), SolveError> {
         assert_eq!(
             a.n(),
             self.n,
             "matrix size differs from the analysed pattern"
         );
-        // Equilibrate: cut elements with tiny fluid parts spread the entries over many orders of
-        // magnitude, which the supernode-local pivoting of LBLᵀ handles poorly.
         let original = a;
         if let Probe::Pending { symmetric_cost } = self.probe {
             // time one whole LU against the symmetric part's last factorization and solve
@@ -276,10 +284,18 @@ impl DirectSolver {
         }
         // (the LU's symbolic analysis above is paid once: not part of the comparison)
         let start = Instant::now();
-        a.equilibration(&mut self.scale);
-        let scaled = self.scaled.get_or_insert_with(|| a.clone());
-        a.scaled_into(&self.scale, scaled);
-        let a = &*scaled;
+        let a: &SparseMatrix = if equilibrate {
+            // cut elements with tiny fluid parts spread the entries over many orders of
+            // magnitude, which the supernode-local pivoting of LBLᵀ handles poorly
+            a.equilibration(&mut self.scale);
+            let scaled = self.scaled.get_or_insert_with(|| a.clone());
+            a.scaled_into(&self.scale, scaled);
+            scaled
+        } else {
+            self.scale.clear();
+            self.scale.resize(self.n, 1.0);
+            a
+        };
         let stack = MemStack::new(&mut self.buffer);
         match &mut self.backend {
             Backend::Lblt {

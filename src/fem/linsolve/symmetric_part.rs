@@ -43,12 +43,12 @@ impl SymmetricPart {
         Ok(Self { lblt, sym, mirror })
     }
 
-    /// Factors the symmetric part of `a` (the analysed pattern).
+    /// Factors the symmetric part of `a` (the analysed pattern, equilibrated by the caller).
     pub(super) fn factor(&mut self, a: &SparseMatrix) -> Result<(), SolveError> {
         for (p, v) in self.sym.values.iter_mut().enumerate() {
             *v = 0.5 * (a.values[p] + a.values[self.mirror[p]]);
         }
-        self.lblt.factor(&self.sym)
+        self.lblt.factor_equilibrated(&self.sym)
     }
 
     /// Applies the inverse of the symmetric part (the preconditioner) in place.

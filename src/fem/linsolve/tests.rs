@@ -104,3 +104,53 @@ fn lblt_and_lu_solve_saddle_point_and_refactor() {
         );
     }
 }
+
+/// A strongly non-symmetric system (GMRES on the symmetric part needs more than
+/// [`PROBE_ITERATIONS`]) times one LU against it and keeps whichever is cheaper; whichever it
+/// keeps, every later solve still meets the tolerance and matches faer's LU.
+#[test]
+fn a_slow_symmetric_part_is_timed_against_an_lu_and_either_way_solves() {
+    // residual tolerance: round-off on a 40×40 well-conditioned system
+    const TOL: f64 = 1e-12;
+    // tridiag(−1 − k, 4, −1 + k) with k = 1 on 40 unknowns: symmetric part tridiag(−1, 4, −1)
+    // (k = 2 and more: GMRES misses the tolerance in 30 iterations and the solver takes the LU)
+    let n = 40;
+    let mut pb = PatternBuilder::new(n);
+    for i in 0..n - 1 {
+        pb.add_group(&[i, i + 1]);
+    }
+    let mut a = pb.build();
+    for i in 0..n {
+        a.add(i, i, 4.0);
+        if i + 1 < n {
+            a.add(i, i + 1, -1.0 + 1.0);
+            a.add(i + 1, i, -1.0 - 1.0);
+        }
+    }
+    let order: Vec<usize> = (0..n).collect();
+    let b: Vec<f64> = (0..n).map(|i| (i as f64).cos() + 0.5).collect();
+    let mut lu = DirectSolver::analyze(&a, SolverKind::Lu).unwrap();
+    lu.factor(&a).unwrap();
+    let mut x_lu = b.clone();
+    lu.solve_in_place(&mut x_lu).unwrap();
+    let mut s = DirectSolver::analyze_with_order(&a, SolverKind::Lu, &order).unwrap();
+    let mut x = vec![0.0; n];
+    for round in 0..3 {
+        s.factor(&a).unwrap();
+        assert!(s.solve_checked(&a, &b, &mut x, TOL).unwrap() < TOL);
+        if round == 0 {
+            assert!(
+                s.last_polish_iterations() > PROBE_ITERATIONS,
+                "the test needs a slow preconditioner: {} iterations, {} fallbacks, {:?}",
+                s.last_polish_iterations(),
+                s.lu_fallbacks(),
+                s.kind()
+            );
+        }
+        for (u, v) in x.iter().zip(&x_lu) {
+            assert!((u - v).abs() < 1e-10, "round {round}: {u} vs {v}");
+        }
+    }
+    assert!(matches!(s.probe, Probe::Decided));
+    assert!(s.lu_fallbacks() <= 1);
+}
