@@ -196,6 +196,19 @@ impl SparseMatrix {
         }
     }
 
+    /// Adds a dense local matrix `k` (row-major) at the `positions` of its entries in
+    /// [`values`](Self::values) (see [`position`](Self::position)): the unconstrained
+    /// [`scatter`](Self::scatter) without searching the pattern; zero entries are skipped as there.
+    #[inline]
+    pub fn add_at(&mut self, positions: &[u32], k: &[f64]) {
+        debug_assert_eq!(positions.len(), k.len());
+        for (&p, &kv) in positions.iter().zip(k) {
+            if kv != 0.0 {
+                self.values[p as usize] += kv;
+            }
+        }
+    }
+
     /// For a matrix assembled without constraints: moves the columns of constrained dofs to the
     /// right-hand side (`rhs_i −= a_ij g_j` for unconstrained i) and zeroes the rows and columns
     /// of constrained dofs — what [`scatter`](Self::scatter) does element by element. Follow

@@ -46,30 +46,46 @@ pub fn volume_terms(
 ) {
     for a in 0..9 {
         for c in 0..2 {
-            let row = 2 * a + c;
             // (L(v), b): v = N_a e_c, L(v)_cj = ∂_j N_a; moved to the right-hand side
-            fe[row] -= w * (dn[a][0] * lin.b[c][0] + dn[a][1] * lin.b[c][1]);
-            if lin.a.is_none() && lin.b_u.is_none() {
-                continue;
+            fe[2 * a + c] -= w * (dn[a][0] * lin.b[c][0] + dn[a][1] * lin.b[c][1]);
+        }
+    }
+    if lin.a.is_none() && lin.b_u.is_none() {
+        return;
+    }
+    // τ_cj of each trial function u = N_b e_d, computed once for all 18 test rows
+    let tau = trial_stresses(n2, dn, lin);
+    for a in 0..9 {
+        for c in 0..2 {
+            let row = &mut ke[(2 * a + c) * nd..(2 * a + c) * nd + 18];
+            for (k, t) in row.iter_mut().zip(&tau) {
+                *k += w * (dn[a][0] * t[c][0] + dn[a][1] * t[c][1]);
             }
-            for b in 0..9 {
-                for d in 0..2 {
-                    let mut v = 0.0;
-                    for j in 0..2 {
-                        let mut t = 0.0;
-                        if let Some(aa) = &lin.a {
-                            t += aa[c][j][d][0] * dn[b][0] + aa[c][j][d][1] * dn[b][1];
-                        }
-                        if let Some(bu) = &lin.b_u {
-                            t += bu[c][j][d] * n2[b];
-                        }
-                        v += dn[a][j] * t;
+        }
+    }
+}
+
+/// The linearized stress's implicit part τ_ij(N_b e_d) for each of the 18 velocity trial
+/// functions (index 2b + d), from A : L(u) + B · u.
+#[inline]
+fn trial_stresses(n2: &[f64; 9], dn: &[[f64; 2]; 9], lin: &StressLin) -> [[[f64; 2]; 2]; 18] {
+    let mut tau = [[[0.0; 2]; 2]; 18];
+    for b in 0..9 {
+        for d in 0..2 {
+            let t = &mut tau[2 * b + d];
+            for i in 0..2 {
+                for j in 0..2 {
+                    if let Some(aa) = &lin.a {
+                        t[i][j] += aa[i][j][d][0] * dn[b][0] + aa[i][j][d][1] * dn[b][1];
                     }
-                    ke[row * nd + 2 * b + d] += w * v;
+                    if let Some(bu) = &lin.b_u {
+                        t[i][j] += bu[i][j][d] * n2[b];
+                    }
                 }
             }
         }
     }
+    tau
 }
 
 /// Adds − (g(v, V, χ), τ·n)_Γ at one boundary point: `jv[α]` are the jump vectors of the 21
@@ -96,26 +112,31 @@ pub fn boundary_terms(
     for alpha in 0..21 {
         // −(g, b·n) moves to the right-hand side with a plus sign
         fe[local(alpha)] += w * (jv[alpha][0] * bn[0] + jv[alpha][1] * bn[1]);
-        if lin.a.is_none() && lin.b_u.is_none() {
-            continue;
-        }
-        for b in 0..9 {
-            for d in 0..2 {
-                // (τ·n)_i for trial u = N_b e_d
-                let mut t = [0.0; 2];
-                for i in 0..2 {
-                    for j in 0..2 {
-                        if let Some(aa) = &lin.a {
-                            t[i] += (aa[i][j][d][0] * dn[b][0] + aa[i][j][d][1] * dn[b][1]) * n[j];
-                        }
-                        if let Some(bu) = &lin.b_u {
-                            t[i] += bu[i][j][d] * n2[b] * n[j];
-                        }
+    }
+    if lin.a.is_none() && lin.b_u.is_none() {
+        return;
+    }
+    // (τ·n)_i of each trial function u = N_b e_d, computed once for all 21 jump rows
+    let mut traction = [[0.0; 2]; 18];
+    for b in 0..9 {
+        for d in 0..2 {
+            let t = &mut traction[2 * b + d];
+            for i in 0..2 {
+                for j in 0..2 {
+                    if let Some(aa) = &lin.a {
+                        t[i] += (aa[i][j][d][0] * dn[b][0] + aa[i][j][d][1] * dn[b][1]) * n[j];
+                    }
+                    if let Some(bu) = &lin.b_u {
+                        t[i] += bu[i][j][d] * n2[b] * n[j];
                     }
                 }
-                ke[local(alpha) * nd + 2 * b + d] -=
-                    w * (jv[alpha][0] * t[0] + jv[alpha][1] * t[1]);
             }
+        }
+    }
+    for alpha in 0..21 {
+        let row = &mut ke[local(alpha) * nd..local(alpha) * nd + 18];
+        for (k, t) in row.iter_mut().zip(&traction) {
+            *k -= w * (jv[alpha][0] * t[0] + jv[alpha][1] * t[1]);
         }
     }
 }
@@ -173,6 +194,96 @@ mod tests {
                         // the same arithmetic in another order: round-off only
                         assert!((ke[(2 * a_ + c) * 22 + 2 * b + d] - expect).abs() < 1e-14);
                     }
+                }
+            }
+        }
+    }
+
+    /// A linearization with every implicit entry set, and shape values/gradients, from a
+    /// deterministic pseudo-random sequence.
+    fn sample() -> (StressLin, [f64; 9], [[f64; 2]; 9]) {
+        let mut x = 0.3f64;
+        let mut next = || {
+            x = (x * 3.7 + 0.13).fract();
+            2.0 * x - 1.0
+        };
+        let mut lin = StressLin {
+            a: Some([[[[0.0; 2]; 2]; 2]; 2]),
+            b_u: Some([[[0.0; 2]; 2]; 2]),
+            b: [[next(), next()], [next(), next()]],
+        };
+        for v in lin
+            .a
+            .as_mut()
+            .unwrap()
+            .iter_mut()
+            .flatten()
+            .flatten()
+            .flatten()
+        {
+            *v = next();
+        }
+        for v in lin.b_u.as_mut().unwrap().iter_mut().flatten().flatten() {
+            *v = next();
+        }
+        let n2 = std::array::from_fn(|_| next());
+        let dn = std::array::from_fn(|_| [next(), next()]);
+        (lin, n2, dn)
+    }
+
+    #[test]
+    fn volume_terms_equal_their_entrywise_definition_bitwise() {
+        // the trial stresses are computed once per trial function; each entry must be the
+        // same arithmetic as (L(N_a e_c), τ(N_b e_d)) evaluated on its own
+        let (lin, n2, dn) = sample();
+        let (aa, bu) = (lin.a.unwrap(), lin.b_u.unwrap());
+        let mut ke = vec![0.0; 22 * 22];
+        let mut fe = vec![0.0; 22];
+        volume_terms(&mut ke, &mut fe, 22, 0.7, &n2, &dn, &lin);
+        for a in 0..9 {
+            for c in 0..2 {
+                for b in 0..9 {
+                    for d in 0..2 {
+                        let mut v = 0.0;
+                        for j in 0..2 {
+                            let mut t = 0.0;
+                            t += aa[c][j][d][0] * dn[b][0] + aa[c][j][d][1] * dn[b][1];
+                            t += bu[c][j][d] * n2[b];
+                            v += dn[a][j] * t;
+                        }
+                        assert_eq!(ke[(2 * a + c) * 22 + 2 * b + d], 0.7 * v);
+                    }
+                }
+            }
+        }
+        // the pressure columns and rows are untouched
+        assert!((0..22).all(|r| (18..22).all(|k| ke[r * 22 + k] == 0.0 && ke[k * 22 + r] == 0.0)));
+    }
+
+    #[test]
+    fn boundary_terms_equal_their_entrywise_definition_bitwise() {
+        let (lin, n2, dn) = sample();
+        let (aa, bu) = (lin.a.unwrap(), lin.b_u.unwrap());
+        let jv: [[f64; 2]; 21] =
+            std::array::from_fn(|k| [(k as f64 * 0.3).sin(), (k as f64 * 0.2).cos()]);
+        let n = [0.6, -0.8];
+        let (nd, off) = (25, 22);
+        let mut ke = vec![0.0; nd * nd];
+        let mut fe = vec![0.0; nd];
+        boundary_terms(&mut ke, &mut fe, nd, off, 0.4, &jv, &n2, &dn, n, &lin);
+        for alpha in 0..21 {
+            let row = crate::solver::rigid::local_jump_dof(alpha, off);
+            for b in 0..9 {
+                for d in 0..2 {
+                    let mut t = [0.0; 2];
+                    for i in 0..2 {
+                        for j in 0..2 {
+                            t[i] += (aa[i][j][d][0] * dn[b][0] + aa[i][j][d][1] * dn[b][1]) * n[j];
+                            t[i] += bu[i][j][d] * n2[b] * n[j];
+                        }
+                    }
+                    let expect = 0.0 - 0.4 * (jv[alpha][0] * t[0] + jv[alpha][1] * t[1]);
+                    assert_eq!(ke[row * nd + 2 * b + d], expect);
                 }
             }
         }

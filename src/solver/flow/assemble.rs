@@ -26,23 +26,20 @@ impl Stokes {
         let lay = self.layout;
         let (eta, theta) = (self.params.eta, self.params.theta);
         let nd = 22 + if lay.with_g { 16 } else { 0 };
-        // without stress in the matrix, fluid elements contribute the same every step
-        let cached = stress.is_none_or(|ps| !ps.is_implicit());
-        if cached {
-            if self
-                .fluid_base
-                .as_ref()
-                .is_none_or(|b| (b.1, b.2) != (eta, theta))
-            {
-                self.fluid_base = Some((self.fluid_values(), eta, theta));
-            }
-            let base = &self.fluid_base.as_ref().expect("built above").0;
-            self.matrix.values.copy_from_slice(base);
-        } else {
-            self.matrix.zero();
+        // the Stokes part of the fluid elements is the same every step; a semi-implicit stress
+        // adds its matrix on top of it
+        let implicit = stress.is_some_and(|ps| ps.is_implicit());
+        if self
+            .fluid_base
+            .as_ref()
+            .is_none_or(|b| (b.1, b.2) != (eta, theta))
+        {
+            self.fluid_base = Some((self.fluid_values(), eta, theta));
         }
+        let base = &self.fluid_base.as_ref().expect("built above").0;
+        self.matrix.values.copy_from_slice(base);
         self.rhs.iter_mut().for_each(|v| *v = 0.0);
-        let rectangles = cached && self.mesh.shape == Shape::Rectangle;
+        let rectangles = self.mesh.shape == Shape::Rectangle;
         if rectangles
             && ((self.rectangles.0, self.rectangles.1) != (eta, theta)
                 || self.rectangles.2.len() > RECTANGLE_CACHE_LEN)
@@ -60,9 +57,9 @@ impl Stokes {
             element_dofs(&self.mesh, &lay, e, &mut dofs);
             let xe = &self.mesh.element_coords[e];
             // outside every particle's reach an element is fluid while the pattern lasts and,
-            // unless it may move, its matrix is in the base (built without the reach and the
-            // moving elements: no cancellation on cut rows)
-            let in_base = cached && !assembled_each_step(&self.reach, &self.moving, e);
+            // unless it may move, its Stokes matrix is in the base (built without the reach and
+            // the moving elements: no cancellation on cut rows)
+            let in_base = !assembled_each_step(&self.reach, &self.moving, e);
             let cut = match &self.cuts[e] {
                 ElementCut::Inside => continue,
                 ElementCut::Fluid => None,
@@ -86,7 +83,8 @@ impl Stokes {
             let by_sides = rectangles && cut.is_none() && !in_base;
             match cut {
                 None if in_base || by_sides => {
-                    // the matrix part is in the base or known from the sides: the loads only
+                    // the Stokes matrix is in the base or known from the sides: the loads and
+                    // the semi-implicit stress's matrix only
                     for (q, ((n2, dref), _)) in tab.iter().enumerate() {
                         let (x, jac, det) = q2_map(xe, self.rule.points[q]);
                         let w = self.rule.weights[q] * det;
@@ -98,26 +96,27 @@ impl Stokes {
                         if let Some(ps) = stress {
                             physical_gradients(&jac, det, dref, &mut dn);
                             let lin = ps.at(e, self.rule.points[q], x, false);
-                            debug_assert!(lin.a.is_none() && lin.b_u.is_none());
                             volume_terms(ke, fe, ndc, w, n2, &dn, &lin);
                         }
                     }
-                    if !by_sides {
+                    if in_base && !implicit {
                         for (a, &i) in dofs.iter().enumerate() {
                             self.rhs[i] += fe[a];
                         }
                         continue;
                     }
-                    let (key, canonical) = canonical_rectangle(xe);
-                    let m = self.rectangles.2.entry(key).or_insert_with(|| {
-                        let mut m = vec![0.0; nd * nd];
-                        let rule = &self.rule;
-                        fluid_element_matrix(
-                            &canonical, rule, &tab, eta, theta, lay.with_g, &mut m,
-                        );
-                        m.into_boxed_slice()
-                    });
-                    ke.copy_from_slice(m);
+                    if by_sides {
+                        let (key, canonical) = canonical_rectangle(xe);
+                        let m = self.rectangles.2.entry(key).or_insert_with(|| {
+                            let mut m = vec![0.0; nd * nd];
+                            let rule = &self.rule;
+                            fluid_element_matrix(
+                                &canonical, rule, &tab, eta, theta, lay.with_g, &mut m,
+                            );
+                            m.into_boxed_slice()
+                        });
+                        ke.iter_mut().zip(m.iter()).for_each(|(k, m)| *k += m);
+                    }
                 }
                 None => {
                     for (q, ((n2, dref), psi)) in tab.iter().enumerate() {
@@ -184,8 +183,16 @@ impl Stokes {
                     }
                 }
             }
-            self.matrix
-                .scatter(&dofs, ke, fe, &mut self.rhs, &self.unconstrained);
+            if ndc == nd {
+                let positions = self.positions.of(e, &dofs, &self.matrix);
+                self.matrix.add_at(positions, ke);
+                for (a, &i) in dofs.iter().enumerate() {
+                    self.rhs[i] += fe[a];
+                }
+            } else {
+                self.matrix
+                    .scatter(&dofs, ke, fe, &mut self.rhs, &self.unconstrained);
+            }
         }
         if !weak {
             self.assemble_multipliers();

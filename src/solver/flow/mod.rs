@@ -40,7 +40,7 @@ use std::collections::HashMap;
 use std::time::Instant;
 
 use crate::mesh::dilate;
-use cache::{RectangleMatrices, MOVING_MARGIN};
+use cache::{ElementPositions, RectangleMatrices, MOVING_MARGIN};
 use constraints::{push_condition_values, VelocityCondition};
 use multipliers::{links_cover, ring_links, rings_for, RingLink};
 use pattern::{build_pattern, reach_for, Reach};
@@ -199,8 +199,9 @@ pub struct Stokes {
     reach: Reach,
     /// Matrix values of the elements outside every particle's reach (fluid while the pattern
     /// lasts) and outside `moving`, without stress or constraints, and the (η, θ) they were
-    /// built with: with no stress in the matrix (explicit coupling) a step starts from them and
-    /// assembles the matrix of the elements in reach or in `moving` only. (Subtracting cut
+    /// built with: a step starts from them and assembles the matrix of the elements in reach or
+    /// in `moving` only (with a semi-implicit stress, η_s = 0, also the stress's matrix of the
+    /// others). (Subtracting cut
     /// elements from an all-fluid base instead lost the relative accuracy of the tiny entries of
     /// sliver rows to cancellation; for the same reason a moved element is never subtracted and
     /// re-added, the base is rebuilt without it.)
@@ -213,6 +214,8 @@ pub struct Stokes {
     /// they were built with: the columns of a mesh that follows the particles have one width
     /// each, so a step computes one matrix per column and row size instead of per element.
     rectangles: RectangleMatrices,
+    /// Where each element's entries lie in the matrix (per pattern).
+    positions: ElementPositions,
     /// All dofs unconstrained (assembly before the elimination of constraints).
     unconstrained: Vec<Option<f64>>,
     /// Timings of the last solve.
@@ -285,6 +288,7 @@ impl Stokes {
             fluid_base: None,
             moving: vec![false; n_elements],
             rectangles: (0.0, 0.0, HashMap::new()),
+            positions: ElementPositions::default(),
             unconstrained: vec![None; n],
             timings: Timings::default(),
         };
@@ -314,6 +318,7 @@ impl Stokes {
             self.reach = reach_for(&self.mesh, &self.particles, &self.cuts);
             self.links = links;
             self.matrix = build_pattern(&self.mesh, &self.layout, &self.reach, &self.links);
+            self.positions.clear();
             self.solver = None;
             self.band_solver = None;
             self.fluid_base = None;
