@@ -11,6 +11,7 @@
 //! configuration types.
 
 mod case;
+mod case_quantities;
 mod error;
 mod extrusion;
 mod limits;

@@ -16,6 +16,7 @@
 //! quasi-static Stokes motion, the flow pattern and its symbolic factorization kept across steps.
 
 mod checkpoint;
+mod end;
 mod surface;
 
 use std::time::Instant;
@@ -25,8 +26,8 @@ pub use crate::geometry::Confinement;
 pub use crate::mesh::follow::FollowingMesh;
 use crate::mesh::{Mesh, Side};
 use crate::particles::{correct, deviation, extrapolate, Contact, RigidState, CONTACT_OVERLAP};
-use crate::solver::ale::{AleError, AleMap, Remap, RigidMove, TemporaryAle};
-use crate::solver::cutcells::{compute_cuts_bounded, CutError, Discretization};
+use crate::solver::ale::{AleMap, Remap, RigidMove, TemporaryAle};
+use crate::solver::cutcells::{compute_cuts_bounded, Discretization};
 use crate::solver::free_surface::HeightFunction;
 use crate::solver::rigid::{ElementCut, Motion, Particle};
 use crate::solver::viscoelastic::{
@@ -34,6 +35,7 @@ use crate::solver::viscoelastic::{
 };
 use crate::xfem::LevelSet;
 pub use checkpoint::MovingCheckpoint;
+pub use end::{MovingEnd, MovingError, StepOutcome};
 pub use surface::SurfaceCheckpoint;
 use surface::{apply_extrusion, Surface};
 
@@ -63,84 +65,6 @@ pub fn apply_walls<D: Confinement + Clone + 'static>(
     Ok(())
 }
 
-/// Why a run stopped.
-#[derive(Debug, Clone, PartialEq)]
-pub enum MovingEnd {
-    /// End time reached.
-    EndTime,
-    /// The step callback asked to stop.
-    Stopped,
-    /// Particles touched each other or a wall.
-    Contact(Contact),
-}
-
-/// Errors of a moving-particle run; the sweep engine records them as divergence.
-#[derive(Debug, thiserror::Error)]
-pub enum MovingError {
-    /// Cut-cell geometry failed.
-    #[error("step {step}: {source}")]
-    Cut {
-        /// Step.
-        step: usize,
-        /// Cause.
-        source: CutError,
-    },
-    /// The temporary ALE map failed.
-    #[error("step {step}: temporary ALE map: {source}")]
-    Ale {
-        /// Step.
-        step: usize,
-        /// Cause.
-        source: AleError,
-    },
-    /// A flow or stress solve failed.
-    #[error(transparent)]
-    Flow(#[from] ViscoelasticError),
-    /// A particle velocity is not finite.
-    #[error("step {step}: non-finite particle velocity")]
-    NonFinite {
-        /// Step.
-        step: usize,
-    },
-    /// The mesh that follows the particles cannot be built around their positions.
-    #[error("step {step}: mesh that follows the particles: {reason}")]
-    Follow {
-        /// Step.
-        step: usize,
-        /// Cause.
-        reason: String,
-    },
-    /// A free surface rose out of the mesh (its swell outgrew the mesh height).
-    #[error("step {step}: the free surface left the mesh at x = {x} (H = {height}); raise geometry.extrusion.height")]
-    SurfaceEscaped {
-        /// Step.
-        step: usize,
-        /// Where.
-        x: f64,
-        /// Its height there.
-        height: f64,
-    },
-    /// Inconsistent set-up.
-    #[error("{0}")]
-    Setup(String),
-}
-
-impl MovingError {
-    /// The phase of the time step that failed: `set-up`, `ale_map`, `classify`, `solve_flow`,
-    /// `solve_stress`, `advance_surface` or `correct`.
-    pub fn phase(&self) -> &'static str {
-        match self {
-            MovingError::Cut { .. } => "classify",
-            MovingError::Ale { .. } | MovingError::Follow { .. } => "ale_map",
-            MovingError::Flow(ViscoelasticError::Flow { .. }) => "solve_flow",
-            MovingError::Flow(ViscoelasticError::Stress(_)) => "solve_stress",
-            MovingError::NonFinite { .. } => "correct",
-            MovingError::SurfaceEscaped { .. } => "advance_surface",
-            MovingError::Flow(_) | MovingError::Setup(_) => "set-up",
-        }
-    }
-}
-
 /// The computational mesh of a moving-particle run.
 #[derive(Debug, Clone)]
 pub enum ComputationalMesh {
@@ -159,30 +83,6 @@ impl From<Mesh> for ComputationalMesh {
 impl From<FollowingMesh> for ComputationalMesh {
     fn from(mesh: FollowingMesh) -> Self {
         ComputationalMesh::Following(mesh)
-    }
-}
-
-/// How a step ended: contact is an outcome of the physics, not an error.
-#[derive(Debug, Clone)]
-pub enum StepOutcome {
-    /// The step was taken.
-    Stepped(StepReport),
-    /// The predicted particles would touch: the step was not taken.
-    Contact(Contact),
-    /// The step was taken and the corrected particles touch.
-    ContactAfter(StepReport, Contact),
-}
-
-impl StepOutcome {
-    /// The report of a step that ended without contact, or the contact.
-    ///
-    /// # Errors
-    /// The contact, predicted or after the step.
-    pub fn into_report(self) -> Result<StepReport, Contact> {
-        match self {
-            StepOutcome::Stepped(r) => Ok(r),
-            StepOutcome::Contact(c) | StepOutcome::ContactAfter(_, c) => Err(c),
-        }
     }
 }
 
