@@ -16,6 +16,7 @@ mod error;
 mod extrusion;
 mod limits;
 mod method;
+mod numerics_checks;
 mod search;
 mod sweep_file;
 mod text;
