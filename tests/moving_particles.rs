@@ -263,6 +263,12 @@ fn the_coupling_lag_is_first_order_in_the_step_and_leaves_the_run_alone() {
     let mut semi = setup(0.04, Coupling::SemiImplicit);
     semi.step().unwrap().into_report().unwrap();
     assert_eq!(semi.coupling_lag().unwrap(), None);
+    // its non-symmetric flow is solved by GMRES on the symmetric part's factor, and counted
+    let stats = semi.flow().flow_solver_stats();
+    assert!(
+        stats.solves >= 2 && stats.krylov_iterations >= stats.solves - 1,
+        "{stats:?}: the start's Stokes solve, then GMRES in each semi-implicit one"
+    );
     // reading the lag between steps changes nothing of the run (bitwise)
     let (mut read, mut plain) = (
         setup(0.04, Coupling::Explicit),
@@ -274,6 +280,14 @@ fn the_coupling_lag_is_first_order_in_the_step_and_leaves_the_run_alone() {
         plain.step().unwrap().into_report().unwrap();
     }
     assert_eq!(read.state(), plain.state());
+    // the explicit coupling's symmetric flow is solved directly: no iterations
+    let stats = plain.flow().flow_solver_stats();
+    assert_eq!(
+        (stats.krylov_iterations, stats.lu_fallbacks),
+        (0, 0),
+        "{stats:?}"
+    );
+    assert!(stats.solves >= 5);
 }
 
 /// The explicit stress extrapolated from the last two steps (`explicit_extrapolated`: τ(2cⁿ −

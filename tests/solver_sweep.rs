@@ -302,6 +302,20 @@ fn a_killed_adaptive_case_continues_with_the_steps_it_would_have_taken() {
         "an adaptive case records its rejected steps"
     );
     assert_eq!(rejected("killed.db"), whole);
+    // and what its flow solves cost (this process: the resumed run counts from its resume)
+    let solves: i64 = Store::open_read_only(&dir.join("whole.db"))
+        .unwrap()
+        .connection()
+        .query_row(
+            "SELECT json_extract(final_json, '$.flow_solver.solves') FROM outcomes",
+            [],
+            |r| r.get(0),
+        )
+        .unwrap();
+    assert!(
+        solves as usize > steps,
+        "{solves} flow solves for {steps} steps"
+    );
 }
 
 /// Runs the two-particle sweep of `numerics_dt` (the `dt = …` of its numerics) uninterrupted,

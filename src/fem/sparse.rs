@@ -138,6 +138,13 @@ impl SparseMatrix {
         }
     }
 
+    /// Position of entry (i, j) in `values`, or `None` outside the pattern.
+    #[inline]
+    pub fn try_position(&self, i: usize, j: usize) -> Option<usize> {
+        let (s, e) = (self.col_ptr[j], self.col_ptr[j + 1]);
+        self.row_idx[s..e].binary_search(&i).ok().map(|k| s + k)
+    }
+
     /// Adds `v` to entry (i, j).
     #[inline]
     pub fn add(&mut self, i: usize, j: usize, v: f64) {
@@ -197,13 +204,18 @@ impl SparseMatrix {
     }
 
     /// Adds a dense local matrix `k` (row-major) at the `positions` of its entries in
-    /// [`values`](Self::values) (see [`position`](Self::position)): the unconstrained
-    /// [`scatter`](Self::scatter) without searching the pattern; zero entries are skipped as there.
+    /// [`values`](Self::values) (see [`try_position`](Self::try_position); `u32::MAX` for an
+    /// entry outside the pattern): the unconstrained [`scatter`](Self::scatter) without searching
+    /// the pattern. Zero entries are skipped as there.
+    ///
+    /// # Panics
+    /// If a nonzero entry has no position (a broken assembly contract, as in `scatter`).
     #[inline]
     pub fn add_at(&mut self, positions: &[u32], k: &[f64]) {
         debug_assert_eq!(positions.len(), k.len());
         for (&p, &kv) in positions.iter().zip(k) {
             if kv != 0.0 {
+                assert!(p != u32::MAX, "element entry not in the sparsity pattern");
                 self.values[p as usize] += kv;
             }
         }

@@ -256,6 +256,12 @@ impl Simulation {
         self.control.as_ref().map(StepController::rejected)
     }
 
+    /// What the flow solves cost beyond their factorizations since this process built the
+    /// case (a resumed case counts from its resume).
+    pub fn flow_solver_stats(&self) -> crate::solver::flow::FlowSolverStats {
+        self.stepper.flow().flow_solver_stats()
+    }
+
     /// Steps taken.
     pub fn steps(&self) -> u64 {
         self.stepper.flow().history().steps() as u64

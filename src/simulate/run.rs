@@ -6,6 +6,7 @@
 use super::{SetupError, Simulation};
 use crate::config::CaseSpec;
 use crate::observe::{CaseObserver, Control, UndisturbedSurface};
+use crate::solver::flow::FlowSolverStats;
 use crate::solver::moving::{MovingError, StepOutcome};
 use crate::solver::viscoelastic::ViscoelasticError;
 
@@ -40,6 +41,9 @@ pub struct CaseResult {
     /// Steps the adaptive step controller tried and redone, beside the `steps` kept (`None`:
     /// a fixed Δt, or a run that ended in an error).
     pub rejected_steps: Option<u64>,
+    /// The flow solves' GMRES iterations and LU fallbacks in this process (`None`: a run that
+    /// ended in an error, or no solver).
+    pub flow_solver: Option<FlowSolverStats>,
 }
 
 impl CaseResult {
@@ -50,6 +54,7 @@ impl CaseResult {
             steps: 0,
             t: 0.0,
             rejected_steps: None,
+            flow_solver: None,
         }
     }
 }
@@ -139,6 +144,7 @@ fn finished(sim: &Simulation) -> CaseResult {
         steps: sim.steps(),
         t: sim.time(),
         rejected_steps: sim.rejected_steps(),
+        flow_solver: Some(sim.flow_solver_stats()),
     }
 }
 
@@ -159,6 +165,7 @@ fn ended_by(e: MovingError, steps: u64, t: f64) -> CaseResult {
         steps,
         t,
         rejected_steps: None,
+        flow_solver: None,
     }
 }
 

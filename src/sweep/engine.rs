@@ -350,8 +350,8 @@ fn run_one(case: &PlannedCase, ctx: &CaseContext<'_>) -> Result<CaseRun, StoreEr
         Err(error) => Ok(crate::simulate::CaseResult::failed(error)),
         Ok(()) => catch_unwind(AssertUnwindSafe(|| ctx.runner.run(&case.spec, &mut rec))),
     };
-    let (status, steps, t, rejected) = match result {
-        Ok(r) => (r.status, r.steps, r.t, r.rejected_steps),
+    let (status, steps, t, rejected, flow_solver) = match result {
+        Ok(r) => (r.status, r.steps, r.t, r.rejected_steps, r.flow_solver),
         Err(payload) => {
             let msg = payload
                 .downcast_ref::<String>()
@@ -367,6 +367,7 @@ fn run_one(case: &PlannedCase, ctx: &CaseContext<'_>) -> Result<CaseRun, StoreEr
                 },
                 steps,
                 t,
+                None,
                 None,
             )
         }
@@ -388,6 +389,10 @@ fn run_one(case: &PlannedCase, ctx: &CaseContext<'_>) -> Result<CaseRun, StoreEr
     if let (Some(o), Some(n)) = (outcome.as_mut(), rejected) {
         // what an adaptive step cost beside the steps kept
         o.final_state["rejected_steps"] = serde_json::json!(n);
+    }
+    if let (Some(o), Some(stats)) = (outcome.as_mut(), flow_solver) {
+        // what the flow solves cost beyond their factorizations (in this process)
+        o.final_state["flow_solver"] = serde_json::json!(stats);
     }
     for (what, e) in [
         ("snapshot", rec.snapshot_error.take()),

@@ -102,6 +102,7 @@ impl CaseRunner for FakeRunner {
                             steps: step,
                             t,
                             rejected_steps: None,
+                            flow_solver: None,
                         }
                     }
                     FakeBehaviour::Panic => panic!("fake solver panicked at step {step}"),
@@ -117,6 +118,7 @@ impl CaseRunner for FakeRunner {
                     steps: step,
                     t,
                     rejected_steps: None,
+                    flow_solver: None,
                 };
             }
             if obs.state_due(step) {
@@ -128,6 +130,7 @@ impl CaseRunner for FakeRunner {
             steps,
             t,
             rejected_steps: None,
+            flow_solver: None,
         }
     }
 }

@@ -77,7 +77,9 @@ impl ElementPositions {
         self.by_element.clear();
     }
 
-    /// The positions of element `e` with dofs `dofs` in `matrix`'s values, found on first use.
+    /// The positions of element `e` with dofs `dofs` in `matrix`'s values, found on first use;
+    /// [`NOT_IN_PATTERN`] where the pattern has no entry (a block that is structurally zero,
+    /// such as G's rows against the pressure).
     pub(super) fn of(&mut self, e: usize, dofs: &[usize], matrix: &SparseMatrix) -> &[u32] {
         if self.by_element.len() <= e {
             self.by_element.resize(e + 1, None);
@@ -86,12 +88,19 @@ impl ElementPositions {
             let positions: Vec<u32> = dofs
                 .iter()
                 .flat_map(|&i| dofs.iter().map(move |&j| (i, j)))
-                .map(|(i, j)| u32::try_from(matrix.position(i, j)).expect("fewer than 2³² entries"))
+                .map(|(i, j)| {
+                    matrix.try_position(i, j).map_or(NOT_IN_PATTERN, |p| {
+                        u32::try_from(p).expect("fewer than 2³² − 1 entries")
+                    })
+                })
                 .collect();
             positions.into_boxed_slice()
         })
     }
 }
+
+/// The position [`ElementPositions`] gives an entry the pattern does not hold.
+pub(super) const NOT_IN_PATTERN: u32 = u32::MAX;
 
 /// (η, θ) and the fluid element matrices by rectangle sides (see `Stokes::rectangles`).
 pub(super) type RectangleMatrices = (f64, f64, HashMap<[u64; 2], Box<[f64]>>);

@@ -116,6 +116,19 @@ pub struct Timings {
     pub solve: f64,
 }
 
+/// What the flow solves of a run cost beyond their factorizations: the iterations of GMRES
+/// (the symmetric-part preconditioner of a semi-implicit stress, or a polish of an inaccurate
+/// direct solve) and the switches to faer's LU (`fem::linsolve`).
+#[derive(Debug, Clone, Copy, Default, PartialEq, serde::Serialize)]
+pub struct FlowSolverStats {
+    /// Flow solves.
+    pub solves: usize,
+    /// GMRES iterations over all solves.
+    pub krylov_iterations: usize,
+    /// Switches of the symmetric-part solver to a whole LU (each lasts for its pattern).
+    pub lu_fallbacks: usize,
+}
+
 /// A Stokes solution in nodal form.
 #[derive(Debug, Clone)]
 pub struct StokesSolution {
@@ -175,6 +188,8 @@ pub struct Stokes {
     pub pattern_rebuilds: usize,
     /// Placements of the band of [`FlowFactorization::Band`] (far-field factorizations).
     pub placements: usize,
+    /// Solves, GMRES iterations and LU fallbacks so far.
+    pub stats: FlowSolverStats,
     /// The band solver of the current placement.
     band_solver: Option<Substructured>,
     /// Solves of [`FlowFactorization::Band`] that fell back to the whole matrix because the
@@ -274,6 +289,7 @@ impl Stokes {
             refactorizations: 0,
             pattern_rebuilds: 0,
             placements: 0,
+            stats: FlowSolverStats::default(),
             band_solver: None,
             band_fallbacks: 0,
             band_declines: 0,
@@ -423,6 +439,7 @@ impl Stokes {
             && self.params.rigid_condition == RigidCondition::Weak
         {
             if let Some((residual, times)) = self.solve_by_band()? {
+                self.stats.solves += 1;
                 self.timings = Timings {
                     assembly: (t1 - t0).as_secs_f64(),
                     symbolic: 0.0,
@@ -449,6 +466,7 @@ impl Stokes {
         }
         let t2 = Instant::now();
         let solver = self.solver.as_mut().expect("analysed above");
+        let fallbacks = solver.lu_fallbacks();
         // The matrix depends on the geometry, the constraints and an implicit stress only: when
         // its values are bitwise those of the last factorization (explicit stress coupling on a
         // fixed geometry) the factorization is reused and only the solve is paid.
@@ -460,6 +478,9 @@ impl Stokes {
         let t3 = Instant::now();
         let residual =
             solver.solve_checked(&self.matrix, &self.rhs, &mut self.sol, RESIDUAL_TOL)?;
+        self.stats.solves += 1;
+        self.stats.krylov_iterations += solver.last_polish_iterations();
+        self.stats.lu_fallbacks += solver.lu_fallbacks() - fallbacks;
         self.timings = Timings {
             assembly: (t1 - t0).as_secs_f64(),
             symbolic,

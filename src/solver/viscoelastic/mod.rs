@@ -187,6 +187,11 @@ impl ViscoelasticFlow {
         self.stokes.refactorizations
     }
 
+    /// The flow solves' GMRES iterations and LU fallbacks so far.
+    pub fn flow_solver_stats(&self) -> crate::solver::flow::FlowSolverStats {
+        self.stokes.stats
+    }
+
     /// Placements of the flow's band solver (far-field factorizations) so far.
     pub fn flow_placements(&self) -> usize {
         self.stokes.placements
