@@ -139,7 +139,7 @@ pub struct Particles {
 #[serde(rename_all = "snake_case", deny_unknown_fields)]
 pub enum Layout {
     /// Point-symmetric string of n particles, neighbours l_x apart in x and l_y apart in y, first particle
-    /// top-left (thesis 5.7, Fig. 5.16; see [`layout::string_positions`]).
+    /// top-left (thesis 5.7, Fig. 5.16; see [`crate::geometry::layout::string_positions`]).
     String {
         /// Number of particles N ≥ 1.
         n: usize,
