@@ -11,11 +11,14 @@
 //!       [  0    A_IΓ  A_II ]          [ A_ΓF  A_ΓΓ ]          [ A_ΓI  S    ]
 //! ```
 //!
-//! where S = A_ΓΓ − A_ΓF A_FF⁻¹ A_FΓ is the Schur complement of K onto Γ (dense). K is fixed
-//! while the band stays where it is (its entries are checked at every factorization), so it is
-//! factored and condensed once ([`DirectSolver::schur_complement`]); M changes in its I rows
-//! only but is small, and is factored for every new matrix. A solve is two solves with K and one
-//! with M:
+//! where S = A_ΓΓ − A_ΓF A_FF⁻¹ A_FΓ is the Schur complement of K onto Γ (dense). K's far rows
+//! and columns are fixed while the band stays where it is (they are checked at every
+//! factorization), so K is factored and condensed once ([`DirectSolver::schur_complement`]).
+//! S is linear in A_ΓΓ, so entries of A_ΓΓ may change too: M's Γ block is S₀ + (A_ΓΓ − A_ΓΓ,₀),
+//! with S₀ and A_ΓΓ,₀ those of the placement — Γ may then lie on elements that change, and the
+//! band needs no ring of unchanged elements around them. M changes in its I rows and its Γ block
+//! but is small, and is factored for every new matrix. A solve is two solves with K and one with
+//! M (K and S₀ as placed):
 //!
 //! ```text
 //!   K [z_F; z_Γ] = [b_F; 0]               (z_Γ = −S⁻¹ A_ΓF A_FF⁻¹ b_F)
@@ -60,10 +63,12 @@ pub struct Substructured {
     k_dofs: Vec<usize>,
     /// Number of far dofs (K indices below are F, the rest Γ).
     n_far: usize,
-    /// The positions in A's values of K's entries, ascending, and the values K was factored
-    /// with there (what [`fits`](Self::fits) compares, in the order of A's storage).
+    /// The positions in A's values of K's entries outside Γ × Γ, ascending, and the values K
+    /// was factored with there (what [`fits`](Self::fits) compares, in the order of A's storage).
     k_src: Vec<usize>,
     k_values: Vec<f64>,
+    /// A's entries in Γ × Γ (M's lower triangle): where M's Γ block takes S₀ + (A_ΓΓ − A_ΓΓ,₀).
+    gamma_entries: Vec<GammaEntry>,
     k_solver: DirectSolver,
     /// S on Γ, in the order of the Γ part of `k_dofs` (= of `m_dofs`).
     schur: Mat<f64>,
@@ -141,17 +146,28 @@ impl Substructured {
             .iter_mut()
             .zip(&k_src)
             .for_each(|(v, &p)| *v = a.values[p]);
+        // K's entries outside Γ × Γ: those that must not change while the band stays
+        let mut k_src: Vec<usize> = (0..k.n())
+            .flat_map(|j| {
+                let (rows, range) = k.column(j);
+                rows.iter()
+                    .zip(range)
+                    .filter(move |(&i, _)| i < n_far || j < n_far)
+                    .map(|(_, p)| p)
+            })
+            .map(|p| k_src[p])
+            .collect();
         let k_order: Vec<usize> = (0..k_dofs.len()).collect();
         let mut k_solver = DirectSolver::analyze_with_order(&k, SolverKind::Lblt, &k_order)?;
         k_solver.factor(&k)?;
         let gamma_k: Vec<usize> = (n_far..k_dofs.len()).collect();
         let schur = k_solver.schur_complement(&gamma_k)?;
         let k_trailing = k_solver.trailing_supernodes(&gamma_k)?;
-        let mut k_src = k_src;
         k_src.sort_unstable();
         let k_values = k_src.iter().map(|&p| a.values[p]).collect();
 
         let (m, m_src) = submatrix(a, &m_dofs, Some(n_interior));
+        let gamma_entries = gamma_block_entries(a, &m, &m_dofs, n_interior, &schur);
         let m_order: Vec<usize> = (0..m_dofs.len()).collect();
         let m_solver = DirectSolver::analyze_with_order(&m, SolverKind::Lblt, &m_order)?;
         Ok(Self {
@@ -165,6 +181,7 @@ impl Substructured {
             n_far,
             k_src,
             k_values,
+            gamma_entries,
             k_solver,
             schur,
             m_dofs,
@@ -204,8 +221,9 @@ impl Substructured {
         }
     }
 
-    /// Whether `a` has the values this split was made for outside the band (bitwise): only
-    /// then may [`factor`](Self::factor) take it.
+    /// Whether `a` has the values this split was made for in the far field's rows and columns
+    /// (bitwise; the band's, Γ × Γ included, may differ): only then may [`factor`](Self::factor)
+    /// take it.
     pub fn fits(&self, a: &SparseMatrix) -> bool {
         self.k_src
             .iter()
@@ -224,7 +242,8 @@ impl Substructured {
         let mut src = self.m_src.iter();
         for j in 0..self.m_dofs.len() {
             let (rows, range) = self.m.column(j);
-            // the Γ × Γ block is S's lower triangle, the last rows of a Γ column: written once
+            // the Γ × Γ block is S₀'s lower triangle, the last rows of a Γ column: written once,
+            // then A_ΓΓ's changes on top (below)
             let dense = if j >= ni { ng - (j - ni) } else { 0 };
             let sparse_len = rows.len() - dense;
             let vals = &mut self.m.values[range];
@@ -242,6 +261,19 @@ impl Substructured {
                         .expect("contiguous")
                         .as_slice()[j - ni..],
                 );
+            }
+        }
+        // S₀ + (A_ΓΓ − A_ΓΓ,₀): S₀ itself where A_ΓΓ is the placement's
+        for g in &mut self.gamma_entries {
+            let new = a.values[g.a_pos];
+            if first || new.to_bits() != g.last.to_bits() {
+                changed = true;
+                g.last = new;
+                self.m.values[g.m_pos] = if new.to_bits() == g.a0.to_bits() {
+                    g.s0
+                } else {
+                    g.s0 + (new - g.a0)
+                };
             }
         }
         if changed {
@@ -335,6 +367,55 @@ impl Substructured {
 }
 
 /// y += S x (dense).
+/// An entry of A in Γ × Γ, in M's lower triangle.
+#[derive(Debug, Clone, Copy)]
+struct GammaEntry {
+    /// Position in A's values.
+    a_pos: usize,
+    /// Position in M's values.
+    m_pos: usize,
+    /// A's value at the placement, and S's there.
+    a0: f64,
+    s0: f64,
+    /// A's value M was last written with.
+    last: f64,
+}
+
+/// The entries of A in Γ × Γ with their places in M's dense Γ block (lower triangle: rows from
+/// the column down, M's Γ columns ending with the block's rows `j..`), and S₀'s values there.
+fn gamma_block_entries(
+    a: &SparseMatrix,
+    m: &SparseMatrix,
+    m_dofs: &[usize],
+    n_interior: usize,
+    schur: &Mat<f64>,
+) -> Vec<GammaEntry> {
+    let n_m = m_dofs.len();
+    let ng = n_m - n_interior;
+    let mut local = vec![usize::MAX; a.n()];
+    m_dofs.iter().enumerate().for_each(|(k, &d)| local[d] = k);
+    let mut entries = Vec::new();
+    for j in n_interior..n_m {
+        let (m_rows, m_range) = m.column(j);
+        let dense_start = m_range.start + m_rows.len() - (ng - (j - n_interior));
+        let (rows, range) = a.column(m_dofs[j]);
+        for (&i, p) in rows.iter().zip(range) {
+            let k = local[i];
+            if k != usize::MAX && k >= j {
+                let a0 = a.values[p];
+                entries.push(GammaEntry {
+                    a_pos: p,
+                    m_pos: dense_start + (k - j),
+                    a0,
+                    s0: schur[(k - n_interior, j - n_interior)],
+                    last: a0,
+                });
+            }
+        }
+    }
+    entries
+}
+
 fn gemv(y: ColMut<'_, f64>, s: &Mat<f64>, x: ColRef<'_, f64>) {
     matmul(y, Accum::Add, s, x, 1.0, Par::Seq);
 }
@@ -419,16 +500,40 @@ mod tests {
         a
     }
 
-    #[test]
-    fn substructured_solves_match_the_whole_factorization() {
+    /// The band solver's solution of `a x = b` is the whole factorization's.
+    fn assert_solves_as_whole(sub: &mut Substructured, a: &SparseMatrix, b: &[f64], what: &str) {
         // relative residual accepted (the flow solver's)
         const TOL: f64 = 1e-10;
-        let n = 90;
-        let range = 30..45;
-        let a0 = chain(n, 2.0, range.clone());
-        let nd = a0.n();
-        // band: the velocities 27..48 and their pressures
-        let band: Vec<bool> = (0..nd)
+        let nd = a.n();
+        assert!(sub.fits(a), "{what}: only the band changed");
+        sub.factor(a).unwrap();
+        let mut x = vec![0.0; nd];
+        let res = sub.solve_checked(a, b, &mut x, TOL).unwrap();
+        assert!(res <= TOL, "{what}: residual {res:.2e}");
+        let mut whole = DirectSolver::analyze(a, SolverKind::Lblt).unwrap();
+        whole.factor(a).unwrap();
+        let mut y = vec![0.0; nd];
+        whole.solve_checked(a, b, &mut y, TOL).unwrap();
+        let err = x
+            .iter()
+            .zip(&y)
+            .map(|(p, q)| (p - q).abs())
+            .fold(0.0, f64::max);
+        let size = y.iter().map(|v| v.abs()).fold(0.0, f64::max);
+        assert!(
+            err <= 1e-8 * size,
+            "{what}: solutions differ by {err:.2e} of {size:.2e}"
+        );
+        assert_eq!(
+            sub.last_polish_iterations(),
+            0,
+            "{what}: exact up to round-off"
+        );
+    }
+
+    /// The chain's band: the velocities 27..48 and their pressures (Γ = velocities 27 and 47).
+    fn chain_band(n: usize, nd: usize) -> Vec<bool> {
+        (0..nd)
             .map(|d| {
                 if d < n {
                     (27..48).contains(&d)
@@ -436,38 +541,59 @@ mod tests {
                     (9..16).contains(&(d - n))
                 }
             })
-            .collect();
+            .collect()
+    }
+
+    #[test]
+    fn substructured_solves_match_the_whole_factorization() {
+        let n = 90;
+        let range = 30..45;
+        let a0 = chain(n, 2.0, range.clone());
+        let nd = a0.n();
+        let band = chain_band(n, nd);
         let order: Vec<usize> = (0..nd).collect();
         let mut sub = Substructured::new(&a0, &band, &order).unwrap();
         assert!(sub.split().interface > 0 && sub.split().interior > 0);
         let b: Vec<f64> = (0..nd).map(|i| (0.3 * i as f64).cos()).collect();
         for scale in [2.0, 1e-4, 50.0] {
             let a = chain(n, scale, range.clone());
-            assert!(sub.fits(&a), "only the band changed");
             assert!(sub.factor(&a).unwrap(), "a new band");
             assert!(!sub.factor(&a).unwrap(), "the same band");
-            let mut x = vec![0.0; nd];
-            let res = sub.solve_checked(&a, &b, &mut x, TOL).unwrap();
-            assert!(res <= TOL, "residual {res:.2e} at band scale {scale}");
-            let mut whole = DirectSolver::analyze(&a, SolverKind::Lblt).unwrap();
-            whole.factor(&a).unwrap();
-            let mut y = vec![0.0; nd];
-            whole.solve_checked(&a, &b, &mut y, TOL).unwrap();
-            let err = x
-                .iter()
-                .zip(&y)
-                .map(|(p, q)| (p - q).abs())
-                .fold(0.0, f64::max);
-            let size = y.iter().map(|v| v.abs()).fold(0.0, f64::max);
-            assert!(
-                err <= 1e-8 * size,
-                "solutions differ by {err:.2e} of {size:.2e}"
-            );
-            assert_eq!(sub.last_polish_iterations(), 0, "exact up to round-off");
+            assert_solves_as_whole(&mut sub, &a, &b, &format!("band scale {scale}"));
         }
         // a change outside the band is noticed
         let mut far = chain(n, 2.0, range);
         far.add(3, 3, 1.0);
         assert!(!sub.fits(&far));
+    }
+
+    /// Γ's own entries may change with the band (S is linear in A_ΓΓ): the solution follows
+    /// them, and back to the placement's values M is again S₀'s.
+    #[test]
+    fn the_interface_block_may_change() {
+        let n = 90;
+        let range = 30..45;
+        let a0 = chain(n, 2.0, range.clone());
+        let nd = a0.n();
+        let band = chain_band(n, nd);
+        let order: Vec<usize> = (0..nd).collect();
+        let mut sub = Substructured::new(&a0, &band, &order).unwrap();
+        assert_eq!(sub.split().interface, 2, "Γ = velocities 27 and 47");
+        let b: Vec<f64> = (0..nd).map(|i| (0.7 * i as f64).sin()).collect();
+        for (d27, d47) in [(0.0, 0.0), (0.5, -0.25), (3.0, 1e-3), (0.0, 0.0)] {
+            let mut a = chain(n, 7.0, range.clone());
+            a.add(27, 27, d27);
+            a.add(47, 47, d47);
+            assert_solves_as_whole(&mut sub, &a, &b, &format!("Γ diagonal + ({d27}, {d47})"));
+        }
+        let mut a = chain(n, 2.0, range);
+        sub.factor(&a).unwrap();
+        let with_s0 = sub.m.values.clone();
+        a.add(47, 47, 0.5);
+        assert!(sub.factor(&a).unwrap(), "a change in Γ × Γ refactors");
+        assert_ne!(sub.m.values, with_s0);
+        a.add(47, 47, -0.5);
+        sub.factor(&a).unwrap();
+        assert_eq!(sub.m.values, with_s0, "S₀ again, bitwise");
     }
 }
