@@ -221,6 +221,53 @@ impl SparseMatrix {
         }
     }
 
+    /// [`add_at`](Self::add_at) for the leading `n` × `n` block of a local matrix `k` of row
+    /// length `stride` (row-major): `positions` are the block's.
+    pub fn add_block_at(&mut self, positions: &[u32], k: &[f64], stride: usize, n: usize) {
+        debug_assert_eq!(positions.len(), n * n);
+        for (row, at) in k.chunks(stride).zip(positions.chunks(n)) {
+            self.add_at(at, &row[..n]);
+        }
+    }
+
+    /// [`add_at`](Self::add_at) column by column (`n` × `n`, row-major `k` and `positions`):
+    /// the order of [`scatter`](Self::scatter), so that an entry a local matrix holds more than
+    /// once (repeated dofs) sums as scatter sums it.
+    pub fn add_at_by_columns(&mut self, positions: &[u32], k: &[f64], n: usize) {
+        debug_assert_eq!(positions.len(), n * n);
+        debug_assert_eq!(k.len(), n * n);
+        for b in 0..n {
+            for a in 0..n {
+                let kv = k[a * n + b];
+                if kv != 0.0 {
+                    let p = positions[a * n + b];
+                    assert!(p != u32::MAX, "local entry not in the sparsity pattern");
+                    self.values[p as usize] += kv;
+                }
+            }
+        }
+    }
+
+    /// Adds the entries of a local matrix `k` (row-major, `dofs` its rows and columns, no
+    /// constraints) outside its leading `n` × `n` block, which [`add_block_at`](Self::add_block_at)
+    /// adds: the rows and columns of a cut element's rigid-body unknowns.
+    pub fn add_border(&mut self, dofs: &[usize], k: &[f64], n: usize) {
+        let nd = dofs.len();
+        debug_assert_eq!(k.len(), nd * nd);
+        for (b, &j) in dofs.iter().enumerate() {
+            let (s, e) = (self.col_ptr[j], self.col_ptr[j + 1]);
+            let col = &self.row_idx[s..e];
+            let rows = if b < n { n } else { 0 };
+            for (a, &i) in dofs.iter().enumerate().skip(rows) {
+                let kv = k[a * nd + b];
+                if kv != 0.0 {
+                    let p = s + col.binary_search(&i).expect("element entry in pattern");
+                    self.values[p] += kv;
+                }
+            }
+        }
+    }
+
     /// For a matrix assembled without constraints: moves the columns of constrained dofs to the
     /// right-hand side (`rhs_i −= a_ij g_j` for unconstrained i) and zeroes the rows and columns
     /// of constrained dofs — what [`scatter`](Self::scatter) does element by element. Follow

@@ -12,7 +12,7 @@ use super::kernels::{fluid_element_matrix, shape_table, stokes_kernel};
 use super::Stokes;
 use crate::fem::element::{physical_gradients, q1, q2, q2_map};
 use crate::mesh::Shape;
-use crate::solver::ghost::{ghost_faces, ghost_patch_matrices};
+use crate::solver::ghost::{ghost_faces, ghost_patch_matrices, FaceSide, GhostFace};
 use crate::solver::multiplier::RigidCondition;
 use crate::solver::polymer_terms::{boundary_terms, volume_terms, PolymerStress};
 use crate::solver::rigid::{jump_vectors, weak_rigid_kernel, CutElement, ElementCut};
@@ -190,8 +190,13 @@ impl Stokes {
                     self.rhs[i] += fe[a];
                 }
             } else {
-                self.matrix
-                    .scatter(&dofs, ke, fe, &mut self.rhs, &self.unconstrained);
+                // the element's own block at its positions, its rigid rows and columns by search
+                let positions = self.positions.of(e, &dofs[..nd], &self.matrix);
+                self.matrix.add_block_at(positions, ke, ndc, nd);
+                self.matrix.add_border(&dofs, ke, nd);
+                for (a, &i) in dofs.iter().enumerate() {
+                    self.rhs[i] += fe[a];
+                }
             }
         }
         if !weak {
@@ -247,8 +252,9 @@ impl Stokes {
                     ke[(36 + a) * N + 36 + b] = gp * k1[8 * a + b];
                 }
             }
-            self.matrix
-                .scatter(&dofs, &ke, &zero, &mut self.rhs, &self.unconstrained);
+            // (by columns, as `scatter` adds: the faces' shared nodes repeat in `dofs`)
+            let positions = self.face_positions.of(face_key(&face), &dofs, &self.matrix);
+            self.matrix.add_at_by_columns(positions, &ke, N);
             if lay.with_g {
                 // G's rows are an L² projection (θ(G, H)): the same patch term, unscaled by h
                 let kg = k1.map(|v| self.params.ghost_penalty * self.params.theta * v);
@@ -266,4 +272,9 @@ impl Stokes {
             }
         }
     }
+}
+
+/// A ghost-penalty face's key among the faces of a mesh: its first element and its side.
+pub(super) fn face_key(face: &GhostFace) -> usize {
+    2 * face.first + usize::from(face.side == FaceSide::Top)
 }

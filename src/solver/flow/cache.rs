@@ -62,10 +62,11 @@ impl Stokes {
     }
 }
 
-/// Per element, the positions in the pattern's values of its local matrix's entries (row-major,
-/// the element's own dofs of [`element_dofs`], not a cut element's rigid dofs): an element
-/// scattered every step finds them once per pattern instead of by a binary search per entry
-/// and step (7 % of a semi-implicit step, where every element is scattered).
+/// Per element (or ghost-penalty face), the positions in the pattern's values of its local
+/// matrix's entries (row-major; an element's own dofs of [`element_dofs`], not a cut element's
+/// rigid dofs): an element scattered every step finds them once per pattern instead of by a
+/// binary search per entry and step (7 % of a semi-implicit step, where every element is
+/// scattered).
 #[derive(Default)]
 pub(super) struct ElementPositions {
     by_element: Vec<Option<Box<[u32]>>>,
@@ -77,7 +78,8 @@ impl ElementPositions {
         self.by_element.clear();
     }
 
-    /// The positions of element `e` with dofs `dofs` in `matrix`'s values, found on first use;
+    /// The positions of element (or face key) `e` with dofs `dofs` in `matrix`'s values, found
+    /// on first use;
     /// [`NOT_IN_PATTERN`] where the pattern has no entry (a block that is structurally zero,
     /// such as G's rows against the pressure).
     pub(super) fn of(&mut self, e: usize, dofs: &[usize], matrix: &SparseMatrix) -> &[u32] {

@@ -231,6 +231,9 @@ pub struct Stokes {
     rectangles: RectangleMatrices,
     /// Where each element's entries lie in the matrix (per pattern).
     positions: ElementPositions,
+    /// Where each ghost-penalty face's patch entries lie in the matrix (per pattern; keyed
+    /// by `assemble::face_key`).
+    face_positions: ElementPositions,
     /// All dofs unconstrained (assembly before the elimination of constraints).
     unconstrained: Vec<Option<f64>>,
     /// Timings of the last solve.
@@ -305,6 +308,7 @@ impl Stokes {
             moving: vec![false; n_elements],
             rectangles: (0.0, 0.0, HashMap::new()),
             positions: ElementPositions::default(),
+            face_positions: ElementPositions::default(),
             unconstrained: vec![None; n],
             timings: Timings::default(),
         };
@@ -335,6 +339,7 @@ impl Stokes {
             self.links = links;
             self.matrix = build_pattern(&self.mesh, &self.layout, &self.reach, &self.links);
             self.positions.clear();
+            self.face_positions.clear();
             self.solver = None;
             self.band_solver = None;
             self.fluid_base = None;
