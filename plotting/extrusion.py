@@ -90,6 +90,11 @@ def curve_key(c: fl.Case) -> tuple:
     return fl.rounded(c.wi), fl.rounded(c.a), start_of(c)
 
 
+# the mesh height above the symmetry line in units of H0 when `geometry.extrusion.height` is not given
+# (src/config/case.rs, DEFAULT_EXTRUSION_HEIGHT)
+DEFAULT_HEIGHT = 2.0
+
+
 def geo_value(c: fl.Case, k: str) -> float:
     return float(c.geo().get(k, 1.0 if k in ("h0", "flow_rate") else 0.0))
 
@@ -205,6 +210,14 @@ class Series:
         self.source, self.s_computed = None, False
         if tr is not None:
             keep = np.isfinite(tr.t) & np.isfinite(tr.x) & np.isfinite(tr.y)
+            # a diverged run's last samples can leave the fluid (x ≈ 1e24): drawn up to the first that does
+            h0 = geo_value(c, "h0")
+            top = c.geo().get("height") or DEFAULT_HEIGHT * h0
+            outside = ~((tr.x >= -geo_value(c, "die_length")) & (tr.x <= geo_value(c, "extrudate_length"))
+                        & (tr.y >= 0) & (tr.y <= top) & ((tr.x >= 0) | (tr.y <= h0)))
+            left = np.nonzero(outside & keep)[0]
+            if len(left):
+                keep &= np.arange(len(keep)) < left[0]
             sep = tr.separation if tr.separation is not None else np.full(len(tr.t), np.nan)
             tr = fl.Track(*(getattr(tr, k)[keep] for k in ("t", "x", "y", "u", "v", "omega", "theta")), sep[keep])
         if tr is None or len(tr.t) == 0:
@@ -416,7 +429,8 @@ def table_rows(f: fl.Figures, g: SetUp, surfaces: Surfaces) -> list[str]:
                 continue
             s0, s1 = finite_first_last(s.s)
             fin = c.final.get("separation") or []
-            if fin and fin[0] is not None:
+            # (unless the final state left the fluid: a diverged run, drawn to its last sample inside)
+            if fin and fin[0] is not None and abs(float(fin[0])) <= geo_value(c, "h0"):
                 s1 = float(fin[0])
             mark = " (from H̄)" if s.s_computed else ""
             cells = [f"{s0:+.4f}{mark}" if np.isfinite(s0) else "–", f"{s1:+.4f}{mark}" if np.isfinite(s1) else "–",
