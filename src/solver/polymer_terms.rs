@@ -116,23 +116,16 @@ pub fn boundary_terms(
     if lin.a.is_none() && lin.b_u.is_none() {
         return;
     }
-    // (τ·n)_i of each trial function u = N_b e_d, computed once for all 21 jump rows
-    let mut traction = [[0.0; 2]; 18];
-    for b in 0..9 {
-        for d in 0..2 {
-            let t = &mut traction[2 * b + d];
-            for i in 0..2 {
-                for j in 0..2 {
-                    if let Some(aa) = &lin.a {
-                        t[i] += (aa[i][j][d][0] * dn[b][0] + aa[i][j][d][1] * dn[b][1]) * n[j];
-                    }
-                    if let Some(bu) = &lin.b_u {
-                        t[i] += bu[i][j][d] * n2[b] * n[j];
-                    }
-                }
-            }
-        }
-    }
+    // (τ·n)_i of each trial function u = N_b e_d (its stress as the volume terms take it),
+    // computed once for all 21 jump rows
+    let tau = trial_stresses(n2, dn, lin);
+    let traction: [[f64; 2]; 18] = std::array::from_fn(|k| {
+        let t = &tau[k];
+        [
+            t[0][0] * n[0] + t[0][1] * n[1],
+            t[1][0] * n[0] + t[1][1] * n[1],
+        ]
+    });
     for alpha in 0..21 {
         let row = &mut ke[local(alpha) * nd..local(alpha) * nd + 18];
         for (k, t) in row.iter_mut().zip(&traction) {
@@ -275,13 +268,17 @@ mod tests {
             let row = crate::solver::rigid::local_jump_dof(alpha, off);
             for b in 0..9 {
                 for d in 0..2 {
-                    let mut t = [0.0; 2];
-                    for i in 0..2 {
-                        for j in 0..2 {
-                            t[i] += (aa[i][j][d][0] * dn[b][0] + aa[i][j][d][1] * dn[b][1]) * n[j];
-                            t[i] += bu[i][j][d] * n2[b] * n[j];
-                        }
-                    }
+                    // the trial function's stress as the volume terms take it, then τ·n
+                    let tau = |i: usize, j: usize| {
+                        let mut t = 0.0;
+                        t += aa[i][j][d][0] * dn[b][0] + aa[i][j][d][1] * dn[b][1];
+                        t += bu[i][j][d] * n2[b];
+                        t
+                    };
+                    let t = [
+                        tau(0, 0) * n[0] + tau(0, 1) * n[1],
+                        tau(1, 0) * n[0] + tau(1, 1) * n[1],
+                    ];
                     let expect = 0.0 - 0.4 * (jv[alpha][0] * t[0] + jv[alpha][1] * t[1]);
                     assert_eq!(ke[row * nd + 2 * b + d], expect);
                 }
