@@ -544,15 +544,19 @@ mod tests {
             .collect()
     }
 
-    #[test]
-    fn substructured_solves_match_the_whole_factorization() {
-        let n = 90;
-        let range = 30..45;
+    /// The chain of 90 velocities whose elements 30..45 change, and its band solver.
+    fn chain_split() -> (usize, std::ops::Range<usize>, usize, Substructured) {
+        let (n, range) = (90, 30..45);
         let a0 = chain(n, 2.0, range.clone());
         let nd = a0.n();
-        let band = chain_band(n, nd);
         let order: Vec<usize> = (0..nd).collect();
-        let mut sub = Substructured::new(&a0, &band, &order).unwrap();
+        let sub = Substructured::new(&a0, &chain_band(n, nd), &order).unwrap();
+        (n, range, nd, sub)
+    }
+
+    #[test]
+    fn substructured_solves_match_the_whole_factorization() {
+        let (n, range, nd, mut sub) = chain_split();
         assert!(sub.split().interface > 0 && sub.split().interior > 0);
         let b: Vec<f64> = (0..nd).map(|i| (0.3 * i as f64).cos()).collect();
         for scale in [2.0, 1e-4, 50.0] {
@@ -571,13 +575,7 @@ mod tests {
     /// them, and back to the placement's values M is again S₀'s.
     #[test]
     fn the_interface_block_may_change() {
-        let n = 90;
-        let range = 30..45;
-        let a0 = chain(n, 2.0, range.clone());
-        let nd = a0.n();
-        let band = chain_band(n, nd);
-        let order: Vec<usize> = (0..nd).collect();
-        let mut sub = Substructured::new(&a0, &band, &order).unwrap();
+        let (n, range, nd, mut sub) = chain_split();
         assert_eq!(sub.split().interface, 2, "Γ = velocities 27 and 47");
         let b: Vec<f64> = (0..nd).map(|i| (0.7 * i as f64).sin()).collect();
         for (d27, d47) in [(0.0, 0.0), (0.5, -0.25), (3.0, 1e-3), (0.0, 0.0)] {
