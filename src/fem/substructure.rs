@@ -366,7 +366,6 @@ impl Substructured {
     }
 }
 
-/// y += S x (dense).
 /// An entry of A in Γ × Γ, in M's lower triangle.
 #[derive(Debug, Clone, Copy)]
 struct GammaEntry {
@@ -416,6 +415,7 @@ fn gamma_block_entries(
     entries
 }
 
+/// y += S x (dense).
 fn gemv(y: ColMut<'_, f64>, s: &Mat<f64>, x: ColRef<'_, f64>) {
     matmul(y, Accum::Add, s, x, 1.0, Par::Seq);
 }

@@ -183,20 +183,15 @@ impl Stokes {
                     }
                 }
             }
-            if ndc == nd {
-                let positions = self.positions.of(e, &dofs, &self.matrix);
-                self.matrix.add_at(positions, ke);
-                for (a, &i) in dofs.iter().enumerate() {
-                    self.rhs[i] += fe[a];
-                }
-            } else {
-                // the element's own block at its positions, its rigid rows and columns by search
-                let positions = self.positions.of(e, &dofs[..nd], &self.matrix);
-                self.matrix.add_block_at(positions, ke, ndc, nd);
+            // the element's own block at its positions; a cut element's rigid rows and columns
+            // by search
+            let positions = self.positions.of(e, &dofs[..nd], &self.matrix);
+            self.matrix.add_block_at(positions, ke, ndc, nd);
+            if ndc > nd {
                 self.matrix.add_border(&dofs, ke, nd);
-                for (a, &i) in dofs.iter().enumerate() {
-                    self.rhs[i] += fe[a];
-                }
+            }
+            for (a, &i) in dofs.iter().enumerate() {
+                self.rhs[i] += fe[a];
             }
         }
         if !weak {
