@@ -1,53 +1,10 @@
 //! A rigid particle in extrusion flow (thesis §6.5) through the one simulation path: the
 //! extrusion set-up in the moving-particle step (free surface predicted with the particles, the
-//! surface's stretch under their ALE map, the fluid bounded by it), its steady swell against the
-//! validated swell study, and a case continued from a saved state.
+//! surface's stretch under their ALE map, the fluid bounded by it) and a case continued from a
+//! saved state. (The swell study itself is a case of this path: tests/extrudate_swell.rs.)
 
 use xpflow::config::CaseSpec;
 use xpflow::simulate::Simulation;
-use xpflow::validate::extrudate::{swell, SwellMesh, STEADY_HEIGHT_TOL, SWELL_DT, SWELL_T_MAX};
-
-/// The UCM extrudate at De = 0.5 on the uniform h = 0.1 mesh of the swell study, as a case without
-/// particles (`geometry.extrusion`, the one simulation path): its steady surface is the study's.
-/// The ALE maps differ (the study's exact column stretch, the case's stretch at the vertices under
-/// the particles' Laplace map) but both are the identity once the surface is steady, so the
-/// steady swells agree to the steady test's reach.
-#[test]
-fn without_a_particle_the_extrusion_case_swells_as_the_swell_study() {
-    // the steady test stops both runs with the surface still moving < 1e-7 per step and the
-    // transients differ (other ALE map): measured 3.9e-8 apart (155 and 164 steps)
-    const SAME_STEADY_SWELL: f64 = 1e-6;
-    let de = 0.5;
-    let grid = SwellMesh {
-        h: 0.1,
-        graded: false,
-    };
-    let study = swell(grid, de, SWELL_DT, SWELL_T_MAX).unwrap();
-    assert!(study.steady);
-    let case = CaseSpec::from_value(serde_json::json!({
-        "geometry": { "extrusion": { "die_length": 2.0, "extrudate_length": 3.0, "height": 1.5 } },
-        "fluid": { "model": "oldroyd_b", "wi": de / 3.0 },
-        "numerics": { "mesh": [50, 15], "dt": SWELL_DT, "t_end": SWELL_T_MAX }
-    }))
-    .unwrap();
-    let mut sim = Simulation::new(&case).unwrap();
-    let surface = loop {
-        sim.step().unwrap();
-        let s = sim.sample().surface.unwrap();
-        if s.change < STEADY_HEIGHT_TOL || sim.time() >= SWELL_T_MAX {
-            break s;
-        }
-    };
-    assert!(surface.change < STEADY_HEIGHT_TOL, "steady");
-    assert!(
-        (surface.swell() - study.swell).abs() < SAME_STEADY_SWELL,
-        "case path {} ({} steps) against the study's {} ({} steps)",
-        surface.swell(),
-        sim.steps(),
-        study.swell,
-        study.steps
-    );
-}
 
 /// The §6.5.1 set-up on a coarse mesh (h = 0.1, a = 0.2 so that the particle spans four
 /// elements): a Giesekus fluid, Wi = 0.25, α = 0.1, the particle starting in the die.

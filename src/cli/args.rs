@@ -71,7 +71,8 @@ pub enum Command {
         /// Directory for CSV output (trajectories).
         #[arg(long, default_value = "results/validate")]
         out: std::path::PathBuf,
-        /// Time step (viscoelastic cylinder study: default 0.01; extrudate swell: 0.05).
+        /// Time step (viscoelastic cylinder study: default 0.01; extrudate swell: 0.05, below
+        /// λ/2 at low De: 0.04 at De = 0.25).
         #[arg(long)]
         dt: Option<f64>,
         /// Longest simulated time before giving up on the steady state (viscoelastic cylinder:

@@ -6,23 +6,25 @@ use std::process::ExitCode;
 
 use super::validate::verdict;
 use crate::validate::extrudate::{
-    extrapolate, published_swell, swell, SwellMesh, SwellRun, NEWTONIAN_SWELL, SWELL_TOL,
+    extrapolate, published_swell, swell, swell_dt, SwellMesh, SwellRun, NEWTONIAN_SWELL, SWELL_TOL,
     VISCOELASTIC_SWELL_TOL,
 };
 
 /// Runs the study at each Deborah number of `des` on the element sizes `hs` (coarse to fine,
-/// each half the last for the extrapolation), prints `swell = …` per mesh and writes each steady
-/// profile to `out`; the verdict holds when every De passes.
+/// each half the last for the extrapolation) with the time step `dt` (default: the study's,
+/// [`swell_dt`]), prints `swell = …` per mesh and writes each steady profile to `out`; the
+/// verdict holds when every De passes.
 pub(super) fn validate_extrudate_swell(
     hs: &[f64],
     des: &[f64],
     graded: bool,
-    dt: f64,
+    dt: Option<f64>,
     t_max: f64,
     out: &Path,
 ) -> anyhow::Result<ExitCode> {
     let mut pass = true;
     for &de in des {
+        let dt = dt.unwrap_or_else(|| swell_dt(de));
         pass &= if de == 0.0 {
             newtonian(hs, graded, dt, t_max, out)?
         } else {
@@ -34,9 +36,7 @@ pub(super) fn validate_extrudate_swell(
 
 /// The table's header (die error: the conformation in the die against the fully developed one).
 fn print_header() {
-    println!(
-        "| h | elements (fluid) | steps | steady | max ΔH last step | die error | swell | time |"
-    );
+    println!("| h | elements | steps | steady | max ΔH last step | die error | swell | time |");
     println!("|---|---|---|---|---|---|---|---|");
 }
 
@@ -45,15 +45,8 @@ fn run_mesh(grid: SwellMesh, de: f64, dt: f64, t_max: f64, out: &Path) -> anyhow
     let r = swell(grid, de, dt, t_max)?;
     let h = grid.h;
     println!(
-        "| {h} | {} ({}) | {} | {} | {:.1e} | {:.1e} | {:.5} | {:.1} s |",
-        r.elements.0,
-        r.elements.1,
-        r.steps,
-        r.steady,
-        r.last_change,
-        r.die_error,
-        r.swell,
-        r.seconds
+        "| {h} | {} | {} | {} | {:.1e} | {:.1e} | {:.5} | {:.1} s |",
+        r.elements, r.steps, r.steady, r.last_change, r.die_error, r.swell, r.seconds
     );
     let mut csv = String::from("x,H\n");
     for (x, y) in &r.profile {

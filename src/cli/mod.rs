@@ -62,7 +62,7 @@ pub fn run(cli: Cli) -> anyhow::Result<ExitCode> {
                 &h.unwrap_or_else(|| validate::default_meshes(study, wi)),
                 &de,
                 graded,
-                dt.unwrap_or(crate::validate::extrudate::SWELL_DT),
+                dt,
                 t_max.unwrap_or(crate::validate::extrudate::SWELL_T_MAX),
                 &out,
             ),

@@ -7,6 +7,7 @@ use crate::fem::substructure::Factorization;
 use crate::solver::multiplier::RigidCondition;
 use serde::{Deserialize, Serialize};
 
+use crate::geometry::extrusion::{EXIT_BAND, EXIT_GROWTH};
 use crate::mesh::follow::Follow;
 
 /// One fully specified simulation case. Build it with [`CaseSpec::from_value`] (or via a sweep file) so that
@@ -175,7 +176,17 @@ pub enum Layout {
 #[serde(deny_unknown_fields)]
 pub struct Numerics {
     /// Number of elements [n1, n2]: along x and y (channels) or radial × azimuthal (Couette).
+    /// An extrusion refined at its die exit (`die_exit`) may leave it out: the refinement sets
+    /// it (and a given one must be the refinement's).
+    #[serde(default)]
     pub mesh: [usize; 2],
+    /// Extrusion only: refine the mesh around the die-exit corner (0, H0), where the stress is
+    /// singular (thesis §6.4: its meshes M1–M4 are refined there), `{ h, band = 0.2,
+    /// growth = 1.05 }`: elements of size h in the square |x| ≤ band, |y − H0| ≤ band, growing
+    /// by `growth` per element away from it ([`DieExit`]). The mesh of `xpflow validate
+    /// extrudate-swell --graded`. Default off: `mesh` uniform elements (not in the case id).
+    #[serde(default, skip_serializing_if = "Option::is_none")]
+    pub die_exit: Option<DieExit>,
     /// Ratio (≥ 1) of the largest to the smallest element size across the channel, finest at the
     /// centre line (thesis Fig. 5.25; Couette: at mid-gap); 1 = uniform.
     #[serde(default = "one")]
@@ -294,6 +305,30 @@ impl FollowMesh {
             spec(self.ratio_y.unwrap_or(self.ratio), a),
         ]
     }
+}
+
+/// An extrusion mesh refined around its die exit (see [`Numerics::die_exit`]).
+#[derive(Debug, Clone, Copy, PartialEq, Serialize, Deserialize)]
+#[serde(deny_unknown_fields)]
+pub struct DieExit {
+    /// Element size in the refined square.
+    pub h: f64,
+    /// Half-width of the refined square; default [`EXIT_BAND`] (0.2). band/h must be a whole
+    /// number, so that the die exit and the die wall are grid lines.
+    #[serde(default = "default_exit_band")]
+    pub band: f64,
+    /// Growth of the element size per element away from the square (≥ 1); default
+    /// [`EXIT_GROWTH`] (1.05).
+    #[serde(default = "default_exit_growth")]
+    pub growth: f64,
+}
+
+fn default_exit_band() -> f64 {
+    EXIT_BAND
+}
+
+fn default_exit_growth() -> f64 {
+    EXIT_GROWTH
 }
 
 fn default_follow_core() -> f64 {

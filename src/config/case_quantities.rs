@@ -13,8 +13,9 @@ impl CaseSpec {
     }
 
     /// The case's computational mesh before any refinement around particles: the confined-shear
-    /// channel ([`Mesh::channel`]) or the Couette annulus (`numerics.mesh` = [radial,
-    /// azimuthal]); `None` for the cylinder channel (built by its validation).
+    /// channel ([`Mesh::channel`]), the Couette annulus (`numerics.mesh` = [radial,
+    /// azimuthal]) or the extrusion's (uniform, or refined at the die exit by
+    /// `numerics.die_exit`); `None` for the cylinder channel (built by its validation).
     pub fn base_mesh(&self) -> Option<Mesh> {
         let n = &self.numerics;
         match self.geometry {
@@ -25,7 +26,13 @@ impl CaseSpec {
                 n.mesh[1],
                 Axis::centred(r1, r2, n.mesh[0], n.grading),
             )),
-            Geometry::Extrusion { .. } => self.extrusion().map(|e| e.mesh(n.mesh[0], n.mesh[1])),
+            Geometry::Extrusion { .. } => self.extrusion().map(|e| match n.die_exit {
+                Some(d) => {
+                    let (ax, ay) = e.die_exit_axes(d.h, d.band, d.growth);
+                    Mesh::rectangle(ax, ay, false)
+                }
+                None => e.mesh(n.mesh[0], n.mesh[1]),
+            }),
             Geometry::CylinderChannel { .. } => None,
         }
     }

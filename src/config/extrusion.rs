@@ -6,6 +6,10 @@ use super::error::SpecError;
 use super::validate::{check_pairs, positive, TOUCH_TOLERANCE};
 use crate::solver::multiplier::RigidCondition;
 
+/// Largest growth of the element size per element away from a refined die exit: neighbouring
+/// elements differing by more than 30 % cost the Q2/Q1 pair accuracy for nothing.
+const MAX_EXIT_GROWTH: f64 = 1.3;
+
 impl CaseSpec {
     /// The set-up's lengths, its mesh height and the mesh's grid lines on x = 0 and y = H0.
     pub(super) fn validate_extrusion_geometry(&self) -> Result<(), SpecError> {
@@ -36,7 +40,7 @@ impl CaseSpec {
         }
         let [nx, ny] = self.numerics.mesh;
         let fits = self.extrusion().is_some_and(|e| e.fits(nx, ny));
-        if nx > 0 && ny > 0 && !fits {
+        if self.numerics.die_exit.is_none() && nx > 0 && ny > 0 && !fits {
             return Err(SpecError::new(
                 "numerics.mesh",
                 format!(
@@ -46,6 +50,79 @@ impl CaseSpec {
                 ),
             ));
         }
+        Ok(())
+    }
+
+    /// `numerics.die_exit` checked, and `numerics.mesh` set to the element counts it makes (a
+    /// given `mesh`, `mesh_given`, must be those); without it, `mesh` must be given. Runs on a
+    /// set-up whose geometry has been validated.
+    pub(super) fn resolve_die_exit_mesh(&mut self, mesh_given: bool) -> Result<(), SpecError> {
+        let Some(d) = self.numerics.die_exit else {
+            if !mesh_given {
+                return Err(SpecError::new(
+                    "numerics.mesh",
+                    "missing: give the element counts [n1, n2], e.g. [200, 50]",
+                ));
+            }
+            return Ok(());
+        };
+        let Some(e) = self.extrusion() else {
+            return Err(SpecError::new(
+                "numerics.die_exit",
+                "refines the die exit of an extrusion; this geometry has none: remove the field",
+            ));
+        };
+        positive("numerics.die_exit.h", d.h)?;
+        positive("numerics.die_exit.band", d.band)?;
+        if !(d.growth >= 1.0 && d.growth <= MAX_EXIT_GROWTH) {
+            return Err(SpecError::new(
+                "numerics.die_exit.growth",
+                format!(
+                    "the element size's growth per element must be between 1 and \
+                     {MAX_EXIT_GROWTH} (got {})",
+                    d.growth
+                ),
+            ));
+        }
+        let room = e
+            .die_length
+            .min(e.extrudate_length)
+            .min(e.h0)
+            .min(e.top - e.h0);
+        if d.band > room {
+            return Err(SpecError::new(
+                "numerics.die_exit.band",
+                format!(
+                    "the refined square |x| ≤ {b}, |y − H0| ≤ {b} must lie in the mesh: band ≤ \
+                     {room} (the die and extrudate lengths, H0 and height − H0)",
+                    b = d.band
+                ),
+            ));
+        }
+        let whole = d.band / d.h;
+        if d.h > d.band || (whole - whole.round()).abs() > 1e-6 {
+            return Err(SpecError::new(
+                "numerics.die_exit.h",
+                format!(
+                    "band/h = {whole} must be a whole number ≥ 1, so that the die exit x = 0 \
+                     and the die wall y = H0 are grid lines (band = {})",
+                    d.band
+                ),
+            ));
+        }
+        let (ax, ay) = e.die_exit_axes(d.h, d.band, d.growth);
+        let counts = [ax.len(), ay.len()];
+        if mesh_given && self.numerics.mesh != counts {
+            return Err(SpecError::new(
+                "numerics.mesh",
+                format!(
+                    "the die-exit refinement makes {}×{} elements, not {}×{}: leave \
+                     numerics.mesh out (it is set from numerics.die_exit) or give those counts",
+                    counts[0], counts[1], self.numerics.mesh[0], self.numerics.mesh[1]
+                ),
+            ));
+        }
+        self.numerics.mesh = counts;
         Ok(())
     }
 

@@ -172,14 +172,20 @@ impl CaseSpec {
             }
             // the die's profile at the particle's height (the fastest the fluid moves there)
             Geometry::Extrusion { .. } => {
-                let Some(e) = self.extrusion() else {
+                let (Some(e), Some(mesh)) = (self.extrusion(), self.base_mesh()) else {
                     return Ok(());
                 };
-                let length = (e.die_length + e.extrudate_length) / self.numerics.mesh[0] as f64;
+                // (the column the particle starts in: a mesh refined at the die exit is
+                // coarser upstream)
+                let ax = &mesh.ax;
                 self.initial_positions()
                     .iter()
                     .enumerate()
-                    .map(|(i, x)| (i, e.inflow_velocity(x[1].abs()) + rim, length))
+                    .map(|(i, x)| {
+                        let k = ax.locate(x[0]);
+                        let length = ax.vertices[k + 1] - ax.vertices[k];
+                        (i, e.inflow_velocity(x[1].abs()) + rim, length)
+                    })
                     .collect()
             }
             Geometry::CylinderChannel { .. } => Vec::new(),

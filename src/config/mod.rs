@@ -24,8 +24,8 @@ mod time_step;
 mod validate;
 
 pub use case::{
-    CaseSpec, Fluid, FollowMesh, FrameChoice, Geometry, HistoryRemap, InterfaceRule, Layout, Model,
-    Numerics, Output, Particles, Stop, StressCoupling, DEFAULT_EXTRUSION_HEIGHT,
+    CaseSpec, DieExit, Fluid, FollowMesh, FrameChoice, Geometry, HistoryRemap, InterfaceRule,
+    Layout, Model, Numerics, Output, Particles, Stop, StressCoupling, DEFAULT_EXTRUSION_HEIGHT,
     DEFAULT_QUADTREE_LEVEL,
 };
 pub use error::{ConfigError, SpecError};
@@ -40,5 +40,7 @@ pub use text::parse as parse_text;
 pub use time_step::{AdaptiveStep, TimeStep};
 pub use validate::{MAX_DT_OVER_LAMBDA, MAX_EXTRAPOLATED_DT_OVER_BETA_LAMBDA};
 
+#[cfg(test)]
+mod extrusion_tests;
 #[cfg(test)]
 mod tests;

@@ -5,7 +5,7 @@ use serde_json::{json, Value};
 use super::*;
 
 /// Derived quantities (H from δ, a from ε, λ) are products of decimals: only rounding error remains.
-const EXACT: f64 = 1e-12;
+pub(super) const EXACT: f64 = 1e-12;
 
 /// The three-particle set-up of thesis 5.7.1 as a case table.
 fn shear() -> Value {
@@ -26,12 +26,12 @@ fn couette() -> Value {
     })
 }
 
-fn set(mut v: Value, pointer: &str, x: Value) -> Value {
+pub(super) fn set(mut v: Value, pointer: &str, x: Value) -> Value {
     *v.pointer_mut(pointer).unwrap() = x;
     v
 }
 
-fn field_of(v: Value) -> String {
+pub(super) fn field_of(v: Value) -> String {
     CaseSpec::from_value(v).expect_err("must be rejected").field
 }
 
@@ -534,62 +534,4 @@ fn the_method_is_xfem_unless_named_and_fdm_refuses_a_cut_rule() {
     let err = CaseSpec::from_value(unknown).expect_err("unknown method");
     assert_eq!(err.field, "numerics.method");
     assert!(err.message.contains("fdm"), "{}", err.message);
-}
-
-/// The §6.5.1 extrusion as a case table.
-fn extrusion() -> Value {
-    json!({
-        "geometry": {"extrusion": {"die_length": 3.0, "extrudate_length": 4.0}},
-        "fluid": {"model": "giesekus", "wi": 0.3, "alpha": 0.1},
-        "particles": {"radius": 0.1, "layout": {"explicit": {"positions": [[-2.3, 0.8]]}}},
-        "numerics": {"mesh": [140, 40], "dt": 0.04, "t_end": 10.0}
-    })
-}
-
-/// An extrusion: Wi = λU/H0 with U = Q/H0, the default mesh height 2 H0; refused where the mesh
-/// has no grid line on the die exit or wall, the particle does not start in the die, and for
-/// what the free surface does not support, each naming its field.
-#[test]
-fn an_extrusion_resolves_its_scales_and_refuses_what_it_cannot_run() {
-    let c = CaseSpec::from_value(extrusion()).unwrap();
-    assert!((c.relaxation_time() - 0.3).abs() < EXACT);
-    let mut q2 = extrusion();
-    q2["geometry"]["extrusion"]["flow_rate"] = json!(2.0);
-    q2["numerics"]["dt"] = json!(0.02);
-    assert!((CaseSpec::from_value(q2).unwrap().relaxation_time() - 0.15).abs() < EXACT);
-    let e = c.extrusion().unwrap();
-    assert_eq!((e.h0, e.top), (1.0, case::DEFAULT_EXTRUSION_HEIGHT));
-    assert_eq!(c.base_mesh().unwrap().n_elements(), 140 * 40);
-    assert_eq!(
-        field_of(set(extrusion(), "/numerics/mesh", json!([141, 40]))),
-        "numerics.mesh"
-    );
-    assert_eq!(
-        field_of(set(extrusion(), "/numerics/mesh", json!([140, 41]))),
-        "numerics.mesh"
-    );
-    for at in [
-        json!([[0.5, 0.5]]),
-        json!([[-2.95, 0.5]]),
-        json!([[-1.0, 0.95]]),
-    ] {
-        let v = set(
-            extrusion(),
-            "/particles/layout/explicit/positions",
-            at.clone(),
-        );
-        assert_eq!(field_of(v), "particles.layout.explicit", "{at}");
-    }
-    let mut low = extrusion();
-    low["geometry"]["extrusion"]["height"] = json!(0.9);
-    assert_eq!(field_of(low), "geometry.extrusion.height");
-    for (pointer, value, field) in [
-        ("/numerics/method", json!("fdm"), "numerics.method"),
-        ("/numerics/frame", json!("particle"), "numerics.frame"),
-        ("/numerics/grading", json!(2.0), "numerics.grading"),
-    ] {
-        let mut v = extrusion();
-        v["numerics"][&pointer[10..]] = value;
-        assert_eq!(field_of(v), field, "{pointer}");
-    }
 }

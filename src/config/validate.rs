@@ -32,10 +32,11 @@ impl CaseSpec {
     pub fn from_value(mut value: Value) -> Result<CaseSpec, SpecError> {
         resolve_shorthands(&mut value)?;
         check_mesh_shape(&value)?;
+        let mesh_given = value.pointer("/numerics/mesh").is_some();
         // Deserialize from pretty text so that serde's line number locates the field.
         let pretty =
             serde_json::to_string_pretty(&value).map_err(|e| SpecError::new("", e.to_string()))?;
-        let spec: CaseSpec = serde_json::from_str(&pretty).map_err(|e| {
+        let mut spec: CaseSpec = serde_json::from_str(&pretty).map_err(|e| {
             let text = e.to_string();
             let message = match text.find(" at line ") {
                 Some(i) => text[..i].to_string(),
@@ -43,6 +44,10 @@ impl CaseSpec {
             };
             SpecError::new(json_path_at_line(&pretty, e.line()), message)
         })?;
+        // (the die-exit refinement is built on a valid set-up, and sets the element counts the
+        // other checks use)
+        spec.validate_geometry()?;
+        spec.resolve_die_exit_mesh(mesh_given)?;
         spec.validate()?;
         Ok(spec)
     }

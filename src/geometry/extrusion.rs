@@ -18,6 +18,15 @@ use crate::particles::{find_contact, Contact};
 /// the flow is fully developed again).
 pub const OUTFLOW_CLEARANCE: f64 = 2.0;
 
+/// Half-width of the uniformly refined square around the die-exit corner (0, H0) of a mesh
+/// refined there ([`Extrusion::die_exit_axes`]; `numerics.die_exit.band`): a multiple of every
+/// element size the swell study uses (0.1, 0.05, 0.025, 0.0125).
+pub const EXIT_BAND: f64 = 0.2;
+/// Growth of the element size away from the refined square ([`Extrusion::die_exit_axes`];
+/// `numerics.die_exit.growth`): slow enough that the surface downstream, where the swell peaks,
+/// keeps elements of ≤ 0.2 on [−2, 3] × [0, 2].
+pub const EXIT_GROWTH: f64 = 1.05;
+
 /// The extrusion set-up.
 #[derive(Debug, Clone, Copy, PartialEq)]
 pub struct Extrusion {
@@ -61,6 +70,39 @@ impl Extrusion {
             Axis::uniform(0.0, self.top, ny),
             false,
         )
+    }
+
+    /// The axes of a mesh refined around the die-exit corner (0, H0), where the stress is
+    /// singular (the thesis' meshes M1–M4 are refined there, §6.4): element size `h` in the
+    /// square |x| ≤ `band`, |y − H0| ≤ `band`, growing by `growth` per element away from it
+    /// ([`Axis::banded`]). The die exit and the die wall are grid lines when `band`/`h` is a
+    /// whole number ([`has_grid_lines`](Self::has_grid_lines)).
+    ///
+    /// # Panics
+    /// Unless the square lies in the mesh (`band` ≤ L_w, L_fs, H0 and top − H0), h > 0 and
+    /// growth ≥ 1 (the case's validation checks these first).
+    pub fn die_exit_axes(&self, h: f64, band: f64, growth: f64) -> (Axis, Axis) {
+        (
+            Axis::banded(
+                -self.die_length,
+                self.extrudate_length,
+                -band,
+                band,
+                h,
+                growth,
+            ),
+            Axis::banded(0.0, self.top, self.h0 - band, self.h0 + band, h, growth),
+        )
+    }
+
+    /// Whether axes put grid lines on the die exit x = 0 and the die wall y = H0.
+    pub fn has_grid_lines(&self, ax: &Axis, ay: &Axis) -> bool {
+        let on = |vertices: &[f64], at: f64| {
+            vertices
+                .iter()
+                .any(|&v| (v - at).abs() < 1e-9 * self.h0.max(1.0))
+        };
+        on(&ax.vertices, 0.0) && on(&ay.vertices, self.h0)
     }
 
     /// Whether the mesh with `nx` × `ny` uniform elements has grid lines on the die exit x = 0

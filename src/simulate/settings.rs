@@ -8,7 +8,7 @@ use crate::fem::substructure::Factorization;
 use serde::Serialize;
 
 use crate::config::{
-    CaseSpec, Geometry, HistoryRemap, InterfaceRule, Method, StressCoupling, TimeStep,
+    CaseSpec, DieExit, Geometry, HistoryRemap, InterfaceRule, Method, StressCoupling, TimeStep,
 };
 use crate::observe::outcome::STEADY_OMEGA_RATE;
 use crate::particles::CONTACT_OVERLAP;
@@ -67,6 +67,9 @@ pub struct MeshSettings {
     /// A mesh that follows the particles: refinement along and across, core and reach in radii.
     #[serde(skip_serializing_if = "Option::is_none")]
     pub follow: Option<FollowSettings>,
+    /// An extrusion mesh refined around its die exit: element size, band and growth.
+    #[serde(skip_serializing_if = "Option::is_none")]
+    pub die_exit: Option<DieExit>,
 }
 
 /// The refinement of a mesh that follows the particles, all defaults filled in.
@@ -281,6 +284,7 @@ impl Settings {
                     _ => 1.0,
                 },
                 follow,
+                die_exit: n.die_exit,
             },
             method: n.method.name(),
             fluid: FluidSettings {
