@@ -66,6 +66,7 @@ bench: build
 	$(BIN) bench drag
 	$(BIN) bench moving --mesh 100x25,200x50,300x75,440x110 --particles 3
 	$(BIN) bench moving --mesh 200x50 --particles 1,6,9
+	$(BIN) bench expand
 
 # Figures and tables from results databases (plotting/, docs/figures.md): `make figures` plots every
 # results/*.db, `make figures DB=results/demo.db` one (or several, space-separated) into results/figures/<db>/,

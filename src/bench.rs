@@ -395,3 +395,30 @@ pub fn step_line(new: &MovingBench, old: &MovingBench) -> String {
         old.median.total / new.median.total
     )
 }
+
+/// Sweep expansion of an `n`×`n` grid (Wi × α over the three-particle shear case): the best of
+/// `repeats` expansions in seconds (issue 28: a quadratic duplicate search took 7.2 s at 200²).
+///
+/// # Errors
+/// If the grid's sweep file is refused (it is valid by construction).
+pub fn expansion(n: usize, repeats: usize) -> Result<f64, crate::config::ConfigError> {
+    let text = format!(
+        "name = \"grid\"\n[base]\n\
+         geometry.confined_shear = {{ h = 1.0, l = 4.0 }}\n\
+         fluid = {{ model = \"giesekus\", wi = 1.0, alpha = 0.01, beta = 0.1 }}\n\
+         particles = {{ radius = 0.1, layout.string = {{ n = 2, lx = 0.5, ly = 0.1 }} }}\n\
+         numerics = {{ mesh = [40, 10], dt = 0.01, t_end = 0.2 }}\n\
+         [axes]\n\
+         fluid.wi = {{ start = 1.0, stop = {n}.0, step = 1.0 }}\n\
+         fluid.alpha = {{ start = 0.0, stop = 0.5, num = {n} }}\n"
+    );
+    let spec = crate::config::SweepSpec::from_str(&text, false, std::path::Path::new("grid.toml"))?;
+    let mut best = f64::INFINITY;
+    for _ in 0..repeats.max(1) {
+        let t = Instant::now();
+        let cases = crate::sweep::expand::expand(&spec)?;
+        best = best.min(t.elapsed().as_secs_f64());
+        assert_eq!(cases.len(), n * n, "an n×n grid");
+    }
+    Ok(best)
+}

@@ -204,6 +204,9 @@ pub enum BenchName {
     /// One viscoelastic time step with moving particles in confined shear flow (thesis §5.7
     /// set-up) on `--mesh` with `--particles`: every phase, medians over `--repeats` steps.
     Moving,
+    /// Sweep expansion of 100² and 200² grids (best of `--repeats`) and their ratio: linear in
+    /// the cases is ×4.
+    Expand,
 }
 
 /// Linear solver choice.

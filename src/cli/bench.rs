@@ -63,6 +63,27 @@ pub(super) fn bench(command: Command) -> anyhow::Result<ExitCode> {
                 println!("{line}");
             }
         }
+        BenchName::Expand => {
+            println!(
+                "| grid | cases | expansion (best of {}) | per case |",
+                repeats.max(1)
+            );
+            println!("|---|---|---|---|");
+            let mut times = Vec::new();
+            for n in [100, 200] {
+                let t = crate::bench::expansion(n, repeats)?;
+                println!(
+                    "| {n}² | {} | {t:.3} s | {:.1} µs |",
+                    n * n,
+                    1e6 * t / (n * n) as f64
+                );
+                times.push(t);
+            }
+            println!(
+                "expansion: 200² / 100² = {:.2} (linear: 4; the quadratic search was 31)",
+                times[1] / times[0]
+            );
+        }
         BenchName::Stokes => {
             let (nx, ny) = parse_mesh(&mesh)?;
             let b = crate::bench::stokes(nx, ny, solver.into(), with_g, repeats)?;
