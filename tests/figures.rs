@@ -534,3 +534,49 @@ fn figures_from_an_empty_database_say_what_is_missing() {
         "the log says what is missing:\n{log}"
     );
 }
+
+/// The extrusion figures from the shipped dataset (`data/validation/extrusion.db`, thesis §6.5):
+/// trajectories, separations and velocities written, and the table's rows; the Wi = 0.5 run,
+/// whose state exploded after the die exit (x ≈ 1e24 at its last step), is drawn up to its last
+/// sample inside the fluid (x = 0.6982) and its final s is that sample's.
+#[test]
+fn extrusion_figures_from_the_shipped_dataset() {
+    let dir = scratch("extrusion");
+    let db = dir.join("extrusion.db");
+    std::fs::copy(repo().join("data/validation/extrusion.db"), &db).unwrap();
+    let python = venv_python();
+    let out = dir.join("figures");
+    let log = make_figures(&python, &db, &out);
+    let figs = out.join("extrusion");
+    for name in [
+        "extrusion_trajectories",
+        "extrusion_separation",
+        "extrusion_velocity",
+    ] {
+        check_png(&figs.join(format!("{name}.png")));
+        check_pdf(&figs.join(format!("{name}.pdf")));
+    }
+    let table = std::fs::read_to_string(figs.join("tables/extrusion.md"))
+        .unwrap_or_else(|e| panic!("missing tables/extrusion.md: {e}\n{log}"));
+    // the row of (Wi, a, mesh): columns Wi | α | a | X0 | mesh | …
+    let row = |wi: &str, a: &str, mesh: &str| {
+        table
+            .lines()
+            .find(|l| {
+                let cells: Vec<&str> = l.split('|').map(str::trim).collect();
+                cells.len() > 5 && cells[1] == wi && cells[3] == a && cells[5] == mesh
+            })
+            .unwrap_or_else(|| panic!("no row Wi = {wi}, a = {a}, {mesh} in:\n{table}"))
+            .to_string()
+    };
+    let diverged = row("0.5", "0.1", "210×48");
+    assert!(
+        diverged.contains("| +0.0313 | 0.6982 |"),
+        "the exploded run ends at its last sample in the fluid:\n{diverged}"
+    );
+    let converged = row("0.3", "0.1", "210×48");
+    assert!(
+        converged.contains("| +0.0482 |") && converged.contains("| 280×64 |"),
+        "a/3 compared with a/4:\n{converged}"
+    );
+}
