@@ -27,6 +27,8 @@ mod stencil;
 #[cfg(test)]
 mod annulus_tests;
 #[cfg(test)]
+mod remap_tests;
+#[cfg(test)]
 mod tests;
 
 pub use extend::{extend_inside, EXTENSION_LAYERS};
