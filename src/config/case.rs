@@ -7,8 +7,9 @@ use crate::fem::substructure::Factorization;
 use crate::solver::multiplier::RigidCondition;
 use serde::{Deserialize, Serialize};
 
-use crate::geometry::extrusion::{EXIT_BAND, EXIT_GROWTH};
+use crate::geometry::extrusion::{Extrusion, EXIT_BAND, EXIT_GROWTH};
 use crate::mesh::follow::Follow;
+use crate::mesh::Axis;
 
 /// One fully specified simulation case. Build it with [`CaseSpec::from_value`] (or via a sweep file) so that
 /// it is validated; afterwards treat it as immutable and pass it as `&CaseSpec`.
@@ -182,8 +183,8 @@ pub struct Numerics {
     pub mesh: [usize; 2],
     /// Extrusion only: refine the mesh around the die-exit corner (0, H0), where the stress is
     /// singular (thesis §6.4: its meshes M1–M4 are refined there), `{ h, band = 0.2,
-    /// growth = 1.05 }`: elements of size h in the square |x| ≤ band, |y − H0| ≤ band, growing
-    /// by `growth` per element away from it ([`DieExit`]). The mesh of `xpflow validate
+    /// growth = 1.05, coarsest }`: elements of size h in the square |x| ≤ band, |y − H0| ≤ band,
+    /// growing by `growth` per element away from it, at most to `coarsest` ([`DieExit`]). The mesh of `xpflow validate
     /// extrudate-swell --graded`. Default off: `mesh` uniform elements (not in the case id).
     #[serde(default, skip_serializing_if = "Option::is_none")]
     pub die_exit: Option<DieExit>,
@@ -321,6 +322,19 @@ pub struct DieExit {
     /// [`EXIT_GROWTH`] (1.05).
     #[serde(default = "default_exit_growth")]
     pub growth: f64,
+    /// The largest element size the growth reaches (≥ h), e.g. the resolution a particle needs
+    /// on its way through the die; default none (the growth runs to the mesh's ends). Not in
+    /// the case id when none.
+    #[serde(default, skip_serializing_if = "Option::is_none")]
+    pub coarsest: Option<f64>,
+}
+
+impl DieExit {
+    /// The axes of the refined mesh of `extrusion` ([`Extrusion::die_exit_axes`]).
+    pub fn axes(&self, extrusion: &Extrusion) -> (Axis, Axis) {
+        let coarsest = self.coarsest.unwrap_or(f64::INFINITY);
+        extrusion.die_exit_axes(self.h, self.band, self.growth, coarsest)
+    }
 }
 
 fn default_exit_band() -> f64 {

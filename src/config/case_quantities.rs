@@ -28,7 +28,7 @@ impl CaseSpec {
             )),
             Geometry::Extrusion { .. } => self.extrusion().map(|e| match n.die_exit {
                 Some(d) => {
-                    let (ax, ay) = e.die_exit_axes(d.h, d.band, d.growth);
+                    let (ax, ay) = d.axes(&e);
                     Mesh::rectangle(ax, ay, false)
                 }
                 None => e.mesh(n.mesh[0], n.mesh[1]),

@@ -110,7 +110,15 @@ impl CaseSpec {
                 ),
             ));
         }
-        let (ax, ay) = e.die_exit_axes(d.h, d.band, d.growth);
+        if let Some(c) = d.coarsest {
+            if !(c >= d.h && c.is_finite()) {
+                return Err(SpecError::new(
+                    "numerics.die_exit.coarsest",
+                    format!("the largest element must be at least h = {} (got {c})", d.h),
+                ));
+            }
+        }
+        let (ax, ay) = d.axes(&e);
         let counts = [ax.len(), ay.len()];
         if mesh_given && self.numerics.mesh != counts {
             return Err(SpecError::new(

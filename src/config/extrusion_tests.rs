@@ -78,7 +78,7 @@ fn a_die_exit_refinement_sets_the_mesh_and_refuses_what_it_cannot_build() {
     let mesh = c.base_mesh().unwrap();
     assert_eq!(c.numerics.mesh, [mesh.ax.len(), mesh.ay.len()]);
     let e = c.extrusion().unwrap();
-    let (ax, ay) = e.die_exit_axes(0.05, 0.2, 1.05);
+    let (ax, ay) = e.die_exit_axes(0.05, 0.2, 1.05, f64::INFINITY);
     assert_eq!(
         (&mesh.ax.vertices, &mesh.ay.vertices),
         (&ax.vertices, &ay.vertices)
@@ -107,11 +107,19 @@ fn a_die_exit_refinement_sets_the_mesh_and_refuses_what_it_cannot_build() {
         ("band", json!(1.5), "numerics.die_exit.band"),
         ("growth", json!(0.9), "numerics.die_exit.growth"),
         ("growth", json!(2.0), "numerics.die_exit.growth"),
+        ("coarsest", json!(0.04), "numerics.die_exit.coarsest"),
     ] {
         let mut v = refined();
         v["numerics"]["die_exit"][field] = value;
         assert_eq!(field_of(v), refused, "{field}");
     }
+    // capped: the die stays at most `coarsest` (the resolution a particle needs on its way)
+    let mut capped = refined();
+    capped["numerics"]["die_exit"]["coarsest"] = json!(0.1);
+    let capped = CaseSpec::from_value(capped).unwrap().base_mesh().unwrap();
+    let largest = |v: &[f64]| v.windows(2).map(|w| w[1] - w[0]).fold(0.0, f64::max);
+    assert!(largest(&capped.ax.vertices) < 0.1 * 1.05 && largest(&mesh.ax.vertices) > 0.15);
+    assert!(capped.n_elements() > mesh.n_elements());
     let mut shear = json!({
         "geometry": {"confined_shear": {"h": 1.0, "l": 4.0}},
         "fluid": {"model": "newtonian", "wi": 0.0},

@@ -74,24 +74,19 @@ impl Extrusion {
 
     /// The axes of a mesh refined around the die-exit corner (0, H0), where the stress is
     /// singular (the thesis' meshes M1–M4 are refined there, §6.4): element size `h` in the
-    /// square |x| ≤ `band`, |y − H0| ≤ `band`, growing by `growth` per element away from it
-    /// ([`Axis::banded`]). The die exit and the die wall are grid lines when `band`/`h` is a
-    /// whole number ([`has_grid_lines`](Self::has_grid_lines)).
+    /// square |x| ≤ `band`, |y − H0| ≤ `band`, growing by `growth` per element away from it up
+    /// to the size `coarsest` (infinite: no bound) ([`Axis::banded_capped`]). The die exit and
+    /// the die wall are grid lines when `band`/`h` is a whole number
+    /// ([`has_grid_lines`](Self::has_grid_lines)).
     ///
     /// # Panics
-    /// Unless the square lies in the mesh (`band` ≤ L_w, L_fs, H0 and top − H0), h > 0 and
-    /// growth ≥ 1 (the case's validation checks these first).
-    pub fn die_exit_axes(&self, h: f64, band: f64, growth: f64) -> (Axis, Axis) {
+    /// Unless the square lies in the mesh (`band` ≤ L_w, L_fs, H0 and top − H0), h > 0,
+    /// growth ≥ 1 and coarsest ≥ h (the case's validation checks these first).
+    pub fn die_exit_axes(&self, h: f64, band: f64, growth: f64, coarsest: f64) -> (Axis, Axis) {
+        let (l, top, h0) = (self.die_length, self.top, self.h0);
         (
-            Axis::banded(
-                -self.die_length,
-                self.extrudate_length,
-                -band,
-                band,
-                h,
-                growth,
-            ),
-            Axis::banded(0.0, self.top, self.h0 - band, self.h0 + band, h, growth),
+            Axis::banded_capped(-l, self.extrudate_length, -band, band, h, growth, coarsest),
+            Axis::banded_capped(0.0, top, h0 - band, h0 + band, h, growth, coarsest),
         )
     }
 

@@ -74,21 +74,40 @@ impl Axis {
     /// # Panics
     /// Panics unless a ≤ lo < hi ≤ b, h > 0 and growth ≥ 1.
     pub fn banded(a: f64, b: f64, lo: f64, hi: f64, h: f64, growth: f64) -> Self {
+        Self::banded_capped(a, b, lo, hi, h, growth, f64::INFINITY)
+    }
+
+    /// [`banded`](Self::banded) with the growth stopped at the element size `coarsest` (before
+    /// the scaling to the ends): uniform ≈ `coarsest` far from the band, e.g. a mesh refined at
+    /// one place that keeps a given resolution everywhere else.
+    ///
+    /// # Panics
+    /// As [`banded`](Self::banded), and unless `coarsest` ≥ h.
+    pub fn banded_capped(
+        a: f64,
+        b: f64,
+        lo: f64,
+        hi: f64,
+        h: f64,
+        growth: f64,
+        coarsest: f64,
+    ) -> Self {
         assert!(
-            a <= lo && lo < hi && hi <= b && h > 0.0 && growth >= 1.0,
+            a <= lo && lo < hi && hi <= b && h > 0.0 && growth >= 1.0 && coarsest >= h,
             "Axis::banded: bad arguments"
         );
         let nb = ((hi - lo) / h).round().max(1.0) as usize;
         let hb = (hi - lo) / nb as f64;
         let outer = |len: f64| -> Vec<f64> {
-            // sizes hb·g, hb·g², … until they cover `len`, then scaled to sum to `len`
+            // sizes hb·g, hb·g², … (at most `coarsest`) until they cover `len`, then scaled to
+            // sum to `len`
             if len <= 0.0 {
                 return Vec::new();
             }
             let mut sizes = Vec::new();
             let (mut size, mut sum) = (hb, 0.0);
             while sum < len {
-                size *= growth;
+                size = (size * growth).min(coarsest);
                 sizes.push(size);
                 sum += size;
                 if sum >= len && sum - len > 0.5 * size && sizes.len() > 1 {
@@ -211,6 +230,15 @@ mod tests {
             .all(|w| w[1] / w[0] < 1.1 * 1.2 && w[0] / w[1] < 1.1 * 1.2));
         let whole = Axis::banded(0.0, 1.0, 0.0, 1.0, 0.1, 1.2);
         assert_eq!(whole.len(), 10);
+        // capped: the same band, sizes growing to ≈ 0.2 and no further (scaling: ±5 %)
+        let capped = Axis::banded_capped(-15.0, 15.0, -1.5, 1.5, 0.05, 1.1, 0.2);
+        let hc: Vec<f64> = capped.vertices.windows(2).map(|w| w[1] - w[0]).collect();
+        assert!((hc[capped.locate(0.0)] - 0.05).abs() < 1e-12);
+        assert!(hc.iter().all(|&s| s < 0.2 * 1.05), "capped at 0.2");
+        assert!((hc[0] - 0.2).abs() < 0.2 * 0.05 && (hc[hc.len() - 1] - 0.2).abs() < 0.01);
+        assert!(capped.len() > ax.len());
+        let uncapped = Axis::banded_capped(-15.0, 15.0, -1.5, 1.5, 0.05, 1.1, f64::INFINITY);
+        assert_eq!(uncapped.vertices, ax.vertices);
     }
 
     #[test]
