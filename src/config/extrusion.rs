@@ -3,6 +3,7 @@
 
 use super::case::{CaseSpec, FrameChoice, Geometry, DEFAULT_EXTRUSION_HEIGHT};
 use super::error::SpecError;
+use super::limits::MAX_MESH_ELEMENTS;
 use super::validate::{check_pairs, positive, TOUCH_TOLERANCE};
 use crate::solver::multiplier::RigidCondition;
 
@@ -110,6 +111,18 @@ impl CaseSpec {
                 ),
             ));
         }
+        // the refined square alone, before its axes are built
+        let square = (2.0 * whole).powi(2);
+        if square > MAX_MESH_ELEMENTS {
+            return Err(SpecError::new(
+                "numerics.die_exit.h",
+                format!(
+                    "h = {} puts {square:.3e} elements in the refined square alone, more than \
+                     {MAX_MESH_ELEMENTS:.0e}: use a larger h",
+                    d.h
+                ),
+            ));
+        }
         if let Some(c) = d.coarsest {
             if !(c >= d.h && c.is_finite()) {
                 return Err(SpecError::new(
@@ -135,7 +148,8 @@ impl CaseSpec {
     }
 
     /// What an extrusion runs with: XFEM (the free surface is cut like the particles), the weak
-    /// rigid-body condition and the lab frame (the die and the inflow stay put), a uniform mesh.
+    /// rigid-body condition and the lab frame (the die and the inflow stay put), a mesh uniform
+    /// or refined at the die exit (`numerics.die_exit`), not graded by `numerics.grading`.
     pub(super) fn validate_extrusion_numerics(&self) -> Result<(), SpecError> {
         let n = &self.numerics;
         let not_with = |field: &str, what: &str| {

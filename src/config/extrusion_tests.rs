@@ -104,6 +104,7 @@ fn a_die_exit_refinement_sets_the_mesh_and_refuses_what_it_cannot_build() {
     for (field, value, refused) in [
         ("h", json!(0.03), "numerics.die_exit.h"),
         ("h", json!(0.0), "numerics.die_exit.h"),
+        ("h", json!(1e-12), "numerics.die_exit.h"),
         ("band", json!(1.5), "numerics.die_exit.band"),
         ("growth", json!(0.9), "numerics.die_exit.growth"),
         ("growth", json!(2.0), "numerics.die_exit.growth"),
