@@ -26,15 +26,21 @@ impl CaseSpec {
                 n.mesh[1],
                 Axis::centred(r1, r2, n.mesh[0], n.grading),
             )),
-            Geometry::Extrusion { .. } => self.extrusion().map(|e| match n.die_exit {
-                Some(d) => {
-                    let (ax, ay) = d.axes(&e);
-                    Mesh::rectangle(ax, ay, false)
-                }
-                None => e.mesh(n.mesh[0], n.mesh[1]),
-            }),
+            Geometry::Extrusion { .. } => self
+                .extrusion_axes()
+                .map(|(ax, ay)| Mesh::rectangle(ax, ay, false)),
             Geometry::CylinderChannel { .. } => None,
         }
+    }
+
+    /// The axes of an extrusion's mesh: `numerics.mesh` uniform, or refined at the die exit by
+    /// `numerics.die_exit`; `None` for another geometry.
+    pub fn extrusion_axes(&self) -> Option<(Axis, Axis)> {
+        let (e, n) = (self.extrusion()?, &self.numerics);
+        Some(match n.die_exit {
+            Some(d) => d.axes(&e),
+            None => e.uniform_axes(n.mesh[0], n.mesh[1]),
+        })
     }
 
     /// The extrusion set-up of an `extrusion` geometry (the mesh height resolved).

@@ -100,18 +100,8 @@ impl CaseSpec {
                 ),
             ));
         }
-        let whole = d.band / d.h;
-        if d.h > d.band || (whole - whole.round()).abs() > 1e-6 {
-            return Err(SpecError::new(
-                "numerics.die_exit.h",
-                format!(
-                    "band/h = {whole} must be a whole number ≥ 1, so that the die exit x = 0 \
-                     and the die wall y = H0 are grid lines (band = {})",
-                    d.band
-                ),
-            ));
-        }
         // the refined square alone, before its axes are built
+        let whole = d.band / d.h;
         let square = (2.0 * whole).powi(2);
         if square > MAX_MESH_ELEMENTS {
             return Err(SpecError::new(
@@ -132,6 +122,16 @@ impl CaseSpec {
             }
         }
         let (ax, ay) = d.axes(&e);
+        if d.h > d.band || !e.has_grid_lines(&ax, &ay) {
+            return Err(SpecError::new(
+                "numerics.die_exit.h",
+                format!(
+                    "band/h = {whole} must be a whole number ≥ 1, so that the die exit x = 0 \
+                     and the die wall y = H0 are grid lines (band = {})",
+                    d.band
+                ),
+            ));
+        }
         let counts = [ax.len(), ay.len()];
         if mesh_given && self.numerics.mesh != counts {
             return Err(SpecError::new(

@@ -172,12 +172,11 @@ impl CaseSpec {
             }
             // the die's profile at the particle's height (the fastest the fluid moves there)
             Geometry::Extrusion { .. } => {
-                let (Some(e), Some(mesh)) = (self.extrusion(), self.base_mesh()) else {
+                let (Some(e), Some((ax, _))) = (self.extrusion(), self.extrusion_axes()) else {
                     return Ok(());
                 };
                 // (the column the particle starts in: a mesh refined at the die exit is
                 // coarser upstream)
-                let ax = &mesh.ax;
                 self.initial_positions()
                     .iter()
                     .enumerate()

@@ -63,13 +63,18 @@ impl Extrusion {
         -3.0 * self.mean_velocity() * y / (self.h0 * self.h0)
     }
 
-    /// The mesh: `nx` uniform elements along [−L_w, L_fs] and `ny` along [0, top].
-    pub fn mesh(&self, nx: usize, ny: usize) -> Mesh {
-        Mesh::rectangle(
+    /// The axes of `nx` uniform elements along [−L_w, L_fs] and `ny` along [0, top].
+    pub fn uniform_axes(&self, nx: usize, ny: usize) -> (Axis, Axis) {
+        (
             Axis::uniform(-self.die_length, self.extrudate_length, nx),
             Axis::uniform(0.0, self.top, ny),
-            false,
         )
+    }
+
+    /// The mesh of [`uniform_axes`](Self::uniform_axes).
+    pub fn mesh(&self, nx: usize, ny: usize) -> Mesh {
+        let (ax, ay) = self.uniform_axes(nx, ny);
+        Mesh::rectangle(ax, ay, false)
     }
 
     /// The axes of a mesh refined around the die-exit corner (0, H0), where the stress is

@@ -11,10 +11,9 @@
 
 use crate::config::{CaseSpec, SpecError, MAX_DT_OVER_LAMBDA};
 use crate::geometry::extrusion::{EXIT_BAND, EXIT_GROWTH};
-use crate::rheology::{giesekus_steady_shear_conformation, Sym2};
 use crate::simulate::{SetupError, Simulation};
 use crate::solver::constitutive_projection::sym_at;
-use crate::solver::moving::{MovingError, StepOutcome};
+use crate::solver::moving::{die_log_conformation, MovingError, StepOutcome};
 
 pub use crate::solver::free_surface::STEADY_HEIGHT_TOL;
 
@@ -189,15 +188,6 @@ pub fn newtonian_swell(h: f64, dt: f64, t_max: f64) -> Result<SwellRun, SwellErr
     swell(SwellMesh { h, graded: false }, 0.0, dt, t_max)
 }
 
-/// The fully developed log-conformation of a UCM fluid (relaxation time `lambda`) in the die's
-/// Poiseuille flow u = (3/2)(1 − y²) at height `y`: the steady simple-shear state at
-/// Wi = λγ̇, γ̇ = −3y ([`giesekus_steady_shear_conformation`] with α = 0), s = log c.
-pub fn die_log_conformation(lambda: f64, y: f64) -> Sym2 {
-    giesekus_steady_shear_conformation(-3.0 * lambda * y, 0.0)
-        .log()
-        .expect("the fully developed conformation is positive definite")
-}
-
 /// The extrudate swell at Deborah number `de` = λγ̇_w (γ̇_w = 3: De = 0 is Newtonian, De > 0 the
 /// UCM fluid of §6.4, η_s = 0, η_p = 1, λ = De/3, semi-implicit stress coupling) on the mesh
 /// `grid`, time step `dt`, until the steady test or `t_max`: the case [`SwellMesh::case`] stepped
@@ -228,12 +218,15 @@ pub fn swell(grid: SwellMesh, de: f64, dt: f64, t_max: f64) -> Result<SwellRun, 
     // the die's fully developed state, away from the inflow and the exit
     let mut die_error: f64 = 0.0;
     if de > 0.0 {
-        let lambda = case.relaxation_time();
+        let (lambda, die) = (
+            case.relaxation_time(),
+            case.extrusion().expect("an extrusion"),
+        );
         for x in [-1.5, -1.0] {
             for y in [0.25, 0.5, 0.75, 0.9] {
                 let (e, xi) = mesh.locate([x, y]).expect("the die lies in the mesh");
                 let c = sym_at(mesh, flow.conformation(), e, xi);
-                let want = die_log_conformation(lambda, y).exp();
+                let want = die_log_conformation(&die, lambda, 0.0, y).exp();
                 die_error = die_error.max((c - want).norm() / want.norm());
             }
         }

@@ -36,8 +36,8 @@ use crate::solver::viscoelastic::{
 use crate::xfem::LevelSet;
 pub use checkpoint::MovingCheckpoint;
 pub use end::{MovingEnd, MovingError, StepOutcome};
-pub use surface::SurfaceCheckpoint;
 use surface::{apply_extrusion, Surface};
+pub use surface::{die_log_conformation, SurfaceCheckpoint};
 
 /// Steps of size `dt` to reach `t_end` (the end time counts as reached within round-off of
 /// t_end/dt).

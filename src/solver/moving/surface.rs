@@ -184,6 +184,16 @@ impl Surface {
     }
 }
 
+/// The fully developed log-conformation s = log c in the die of `e` at height `y` (0 ≤ y ≤ H0):
+/// the steady simple-shear state of a Giesekus fluid (relaxation time `lambda`, mobility
+/// `alpha`; UCM/Oldroyd-B at α = 0) at the die's shear rate γ̇(y)
+/// ([`giesekus_steady_shear_conformation`]).
+pub fn die_log_conformation(e: &Extrusion, lambda: f64, alpha: f64, y: f64) -> Sym2 {
+    giesekus_steady_shear_conformation(lambda * e.die_shear_rate(y), alpha)
+        .log()
+        .expect("the fully developed conformation is positive definite")
+}
+
 /// The die's boundary conditions (thesis Eqs. 6.8–6.14): the fully developed profile at the
 /// inflow (the thesis imposes the flow rate Q by a multiplier with open conditions; upstream of a
 /// long die the two agree), no-slip on the die wall y = H0 (a grid line, x ≤ 0), symmetry
@@ -216,11 +226,7 @@ pub(super) fn apply_extrusion(
         return Ok(());
     }
     let (lambda, alpha) = (params.lambda, params.alpha);
-    let die = move |y: f64| -> Sym2 {
-        giesekus_steady_shear_conformation(lambda * e.die_shear_rate(y), alpha)
-            .log()
-            .expect("the fully developed conformation is positive definite")
-    };
+    let die = move |y: f64| die_log_conformation(&e, lambda, alpha, y);
     flow.set_initial_log_conformation(|x| {
         if x[0] <= 0.0 && x[1] <= e.h0 {
             die(x[1])
