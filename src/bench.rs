@@ -154,6 +154,11 @@ pub struct MovingBench {
     pub factorization: crate::fem::substructure::Factorization,
     /// Placements of the band solver (far-field factorizations) over the run.
     pub placements: usize,
+    /// GMRES iterations that polished inexact flow solves over the run (0: every direct solve
+    /// met the residual tolerance).
+    pub polish_iterations: usize,
+    /// How the log-conformation transport steps of the run were solved.
+    pub transport: crate::solver::constitutive::TransportStats,
     /// Steps of the run (warm-up included).
     pub run_steps: usize,
     /// Peak resident memory (MB) the run added ([`moving`]), if readable.
@@ -299,6 +304,8 @@ pub fn moving(
                 flow_factorizations: flow.flow_refactorizations(),
                 factorization,
                 placements: flow.flow_placements(),
+                polish_iterations: flow.flow_solver_stats().krylov_iterations,
+                transport: flow.transport_stats(),
                 run_steps: warm_up + steps,
                 peak_rss_mb,
             }
@@ -317,12 +324,12 @@ pub fn current_rss_mb() -> Option<f64> {
 
 impl MovingBench {
     /// Markdown table header matching [`to_row`](Self::to_row).
-    pub const HEADER: &'static str = "| mesh | particles | factorization | flow / stress unknowns | ALE | classify | flow asm | flow sym + placement | flow factor | flow solve | G proj | s asm | s factor | s solve | c proj | step | pattern rebuilds | placements | flow factorizations | peak RSS |\n|---|---|---|---|---|---|---|---|---|---|---|---|---|---|---|---|---|---|---|---|";
+    pub const HEADER: &'static str = "| mesh | particles | factorization | flow / stress unknowns | ALE | classify | flow asm | flow sym + placement | flow factor | flow solve | G proj | s asm | s factor | s solve | c proj | step | pattern rebuilds | placements | flow factorizations | polish iterations | s: GMRES iterations / LU steps | peak RSS |\n|---|---|---|---|---|---|---|---|---|---|---|---|---|---|---|---|---|---|---|---|---|---|";
 
     /// One markdown table row (seconds).
     pub fn to_row(&self) -> String {
         format!(
-            "| {} | {} | {} | {} / {} | {:.4} | {:.4} | {:.4} | {:.4} | {:.4} | {:.4} | {:.4} | {:.4} | {:.4} | {:.4} | {:.4} | **{:.3}** | {} of {} | {} | {} of {} | {} |",
+            "| {} | {} | {} | {} / {} | {:.4} | {:.4} | {:.4} | {:.4} | {:.4} | {:.4} | {:.4} | {:.4} | {:.4} | {:.4} | {:.4} | **{:.3}** | {} of {} | {} | {} of {} | {} | {} / {} | {} |",
             self.mesh,
             self.particles,
             match self.factorization {
@@ -348,6 +355,9 @@ impl MovingBench {
             self.placements,
             self.flow_factorizations,
             self.run_steps + 1,
+            self.polish_iterations,
+            self.transport.krylov_iterations,
+            self.transport.lu_steps,
             self.peak_rss_mb.map_or("—".into(), |m| format!("{m:.0} MB")),
         )
     }
@@ -365,7 +375,7 @@ pub fn ratio_row(new: &MovingBench, old: &MovingBench) -> String {
     };
     let (a, b) = (&old.median, &new.median);
     format!(
-        "| ratio (refactor / band) | | | | {} | {} | {} | {} | {} | {} | {} | {} | {} | {} | {} | **{}** | | | | {} |",
+        "| ratio (refactor / band) | | | | {} | {} | {} | {} | {} | {} | {} | {} | {} | {} | {} | **{}** | | | | | | {} |",
         r(a.ale, b.ale),
         r(a.classify, b.classify),
         r(a.flow_assembly, b.flow_assembly),

@@ -18,8 +18,13 @@
 //! is the element length in the direction of `w` at the quadrature point.
 //!
 //! The left-hand side is the same scalar matrix for the three components: it is assembled once per
-//! step into a fixed Q1 pattern (all elements, so that a moving particle never changes it), factored
-//! once by LU (symbolic analysis reused across steps) and solved for three right-hand sides.
+//! step into a fixed Q1 pattern (all elements, so that a moving particle never changes it) and
+//! solved for three right-hand sides by GMRES preconditioned with its ILU(0) factor
+//! ([`Ilu0`]), started from sⁿ, to the relative residual [`ITERATIVE_TOL`]. The matrix is a
+//! mass matrix plus convection and changes every step; a sparse LU of it (COLAMD order,
+//! supernodal fill) cost ≈ 5× the rest of the transport step. Where the incomplete factor fails
+//! or GMRES misses the tolerance in [`MAX_ITERATIONS`], that step is solved by LU (symbolic
+//! analysis done once and reused), counted in [`TransportStats::lu_steps`].
 //! Only the fluid part of cut elements is integrated (the per-element [`ElementCut`] override, as
 //! in the flow solver); vertices that touch no fluid become identity rows with `s = 0` (`c = I`).
 //! Walls have `u·n = 0` and SUPG needs no boundary term there; an inflow boundary (the extrudate's
@@ -33,7 +38,8 @@
 use std::time::Instant;
 
 use crate::fem::element::{physical_gradients, q1, q2, q2_map};
-use crate::fem::linsolve::{DirectSolver, SolveError, SolverKind};
+use crate::fem::ilu::Ilu0;
+use crate::fem::linsolve::{DirectSolver, SolveError};
 use crate::fem::quadrature::gauss_quad;
 use crate::fem::sparse::{q1_pattern, SparseMatrix};
 use crate::mesh::Mesh;
@@ -97,9 +103,9 @@ pub struct TransportTimings {
     pub assembly: f64,
     /// Symbolic analysis (first step only).
     pub symbolic: f64,
-    /// Numeric LU factorization.
+    /// The incomplete factorization (and the numeric LU on a fallback step).
     pub factor: f64,
-    /// Three triangular solves.
+    /// GMRES for three right-hand sides (and the LU's triangular solves on a fallback step).
     pub solve: f64,
 }
 
@@ -192,6 +198,13 @@ pub struct LogConformationTransport {
     /// found once per pattern and cut set (`None`: to be found).
     inflow_rows: Option<InflowRows>,
     solver: Option<DirectSolver>,
+    /// Incomplete factor of the iterative solve, and its solution buffers.
+    ilu: Ilu0,
+    solution: [Vec<f64>; 3],
+    /// Solve by LU only (comparison mode; default: GMRES with ILU(0), LU as fallback).
+    pub direct: bool,
+    /// How the steps so far were solved.
+    pub stats: TransportStats,
     rule: Vec<([f64; 2], f64)>,
     cuts: Vec<ElementCut>,
     /// Faces with a ghost penalty (interior faces of cut elements).
@@ -230,6 +243,10 @@ impl LogConformationTransport {
             inflow: Vec::new(),
             inflow_rows: None,
             solver: None,
+            ilu: Ilu0::default(),
+            solution: [vec![0.0; nv], vec![0.0; nv], vec![0.0; nv]],
+            direct: false,
+            stats: TransportStats::default(),
             rule: rule.points.into_iter().zip(rule.weights).collect(),
             cuts: vec![ElementCut::Fluid; mesh.n_elements()],
             ghost: Vec::new(),
@@ -345,31 +362,10 @@ impl LogConformationTransport {
         let t0 = Instant::now();
         self.assemble(mesh, model, dt, flow, history);
         let t1 = Instant::now();
-        let mut symbolic = 0.0;
-        if self.solver.is_none() {
-            let solver = DirectSolver::analyze(&self.matrix, SolverKind::Lu).map_err(|source| {
-                ConstitutiveError::Solve {
-                    what: "log-conformation",
-                    step,
-                    source,
-                }
-            })?;
-            self.solver = Some(solver);
-            symbolic = t1.elapsed().as_secs_f64();
-        }
-        let t2 = Instant::now();
-        let solver = self.solver.as_mut().expect("analysed above");
-        let wrap = |source| ConstitutiveError::Solve {
-            what: "log-conformation",
-            step,
-            source,
+        let (symbolic, factor, solve) = match self.solve_iteratively(history, dt) {
+            Some(times) => (0.0, times.0, times.1),
+            None => self.solve_directly(step)?,
         };
-        solver.factor(&self.matrix).map_err(wrap)?;
-        let t3 = Instant::now();
-        for r in &mut self.rhs {
-            solver.solve_in_place(r).map_err(wrap)?;
-        }
-        let t4 = Instant::now();
         // shift: s^{n−1} ← sⁿ, sⁿ ← new (reusing the old s^{n−1} buffer)
         let mut next = history
             .previous
@@ -385,8 +381,8 @@ impl LogConformationTransport {
         self.timings = TransportTimings {
             assembly: (t1 - t0).as_secs_f64(),
             symbolic,
-            factor: (t3 - t2).as_secs_f64(),
-            solve: (t4 - t3).as_secs_f64(),
+            factor,
+            solve,
         };
         Ok(())
     }
@@ -529,5 +525,8 @@ pub fn inactive_vertices(mesh: &Mesh, cuts: &[ElementCut]) -> Vec<Option<f64>> {
         .collect()
 }
 
+mod linear_solve;
 #[cfg(test)]
 mod tests;
+
+pub use linear_solve::{TransportStats, ITERATIVE_TOL, MAX_ITERATIONS};

@@ -445,6 +445,10 @@ impl Stokes {
         {
             if let Some((residual, times)) = self.solve_by_band()? {
                 self.stats.solves += 1;
+                self.stats.krylov_iterations += self
+                    .band_solver
+                    .as_ref()
+                    .map_or(0, Substructured::last_polish_iterations);
                 self.timings = Timings {
                     assembly: (t1 - t0).as_secs_f64(),
                     symbolic: 0.0,

@@ -192,6 +192,11 @@ impl ViscoelasticFlow {
         self.stokes.stats
     }
 
+    /// How the log-conformation transport steps so far were solved.
+    pub fn transport_stats(&self) -> crate::solver::constitutive::TransportStats {
+        self.transport.stats
+    }
+
     /// Placements of the flow's band solver (far-field factorizations) so far.
     pub fn flow_placements(&self) -> usize {
         self.stokes.placements
