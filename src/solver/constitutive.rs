@@ -20,7 +20,7 @@
 //! The left-hand side is the same scalar matrix for the three components: it is assembled once per
 //! step into a fixed Q1 pattern (all elements, so that a moving particle never changes it) and
 //! solved for three right-hand sides by GMRES preconditioned with its ILU(0) factor
-//! ([`Ilu0`]), started from sⁿ, to the relative residual [`ITERATIVE_TOL`]. The matrix is a
+//! ([`Ilu0`]), started from the BDF2 extrapolation ŝ, to the relative residual [`ITERATIVE_TOL`]. The matrix is a
 //! mass matrix plus convection and changes every step; a sparse LU of it (COLAMD order,
 //! supernodal fill) cost ≈ 5× the rest of the transport step. Where the incomplete factor fails
 //! or GMRES misses the tolerance in [`MAX_ITERATIONS`], that step is solved by LU (symbolic
