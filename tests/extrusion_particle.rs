@@ -111,3 +111,86 @@ fn separations_are_measured_from_the_undisturbed_steady_surface() {
         "H̄ = H0 in the die"
     );
 }
+
+/// What a run reports of its prelude (the undisturbed flow before the first sample): the steps
+/// it took in this process, its saved states, and the surface it reached. It stops the case at
+/// its first sample, and dies (a panic, as a kill) at save number `die_at`.
+#[derive(Default)]
+struct PreludeWatch {
+    resume: Option<String>,
+    die_at: Option<usize>,
+    steps_here: std::cell::Cell<usize>,
+    saved: Vec<String>,
+    surface: Option<xpflow::observe::UndisturbedSurface>,
+}
+
+impl xpflow::observe::CaseObserver for PreludeWatch {
+    fn on_step(&mut self, _: &xpflow::observe::Sample) -> xpflow::observe::Control {
+        xpflow::observe::Control::Stop
+    }
+    fn snapshot_due(&self, _: u64) -> bool {
+        false
+    }
+    fn on_snapshot(&mut self, _: &xpflow::observe::FieldSnapshot) {}
+    fn checkpoint(&mut self) {}
+    fn on_undisturbed_surface(&mut self, s: &xpflow::observe::UndisturbedSurface) {
+        self.surface = Some(s.clone());
+    }
+    fn prelude_due(&self) -> bool {
+        self.steps_here.set(self.steps_here.get() + 1);
+        true
+    }
+    fn save_prelude(&mut self, state: &str) {
+        if Some(self.saved.len()) == self.die_at {
+            panic!("killed");
+        }
+        self.saved.push(state.to_string());
+    }
+    fn resume_prelude(&mut self) -> Option<String> {
+        self.resume.take()
+    }
+}
+
+/// The prelude of an extrusion case (its undisturbed flow, thousands of steps on a fine mesh) is
+/// saved as it goes: a case killed during it continues from its last saved state, takes only the
+/// steps that were left, and reaches the surface the uninterrupted run reaches. (A state that
+/// does not fit the case starts the prelude over: `simulate::run`.)
+#[test]
+fn a_killed_prelude_continues_from_its_saved_state() {
+    // a restored flow rebuilds its pattern and orderings: round-off only
+    const SAME: f64 = 1e-9;
+    let mut case = coarse_case();
+    case.numerics.mesh = [35, 10];
+    let case = CaseSpec::from_value(serde_json::to_value(&case).unwrap()).unwrap();
+    let run = |watch: &mut PreludeWatch| xpflow::simulate::run::run_case(&case, watch);
+
+    let mut whole = PreludeWatch::default();
+    run(&mut whole);
+    let want = whole.surface.expect("the surface is reported");
+    assert!(want.steady && want.steps > 6, "{} steps", want.steps);
+    assert_eq!(whole.steps_here.get(), want.steps);
+
+    // killed at the 6th save: the 5th saved state (after step 5) survives
+    let mut killed = PreludeWatch {
+        die_at: Some(5),
+        ..PreludeWatch::default()
+    };
+    let died = std::panic::catch_unwind(std::panic::AssertUnwindSafe(|| run(&mut killed))).is_err();
+    assert!(died && killed.surface.is_none());
+    let mut resumed = PreludeWatch {
+        resume: killed.saved.pop(),
+        ..PreludeWatch::default()
+    };
+    run(&mut resumed);
+    let got = resumed.surface.expect("the surface is reported");
+    assert_eq!(got.steps, want.steps, "the same prelude");
+    assert_eq!(
+        resumed.steps_here.get(),
+        want.steps - 5,
+        "only the steps left"
+    );
+    assert_eq!(got.steady, want.steady);
+    for (a, b) in got.profile.iter().zip(&want.profile) {
+        assert!((a[1] - b[1]).abs() < SAME, "{a:?} against {b:?}");
+    }
+}

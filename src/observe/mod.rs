@@ -148,6 +148,20 @@ pub trait CaseObserver {
     /// The undisturbed steady free surface H̄ of an extrusion (before the first step;
     /// separations are measured from it).
     fn on_undisturbed_surface(&mut self, _surface: &UndisturbedSurface) {}
+    /// True when the runner should hand the state of the case's prelude (an extrusion's
+    /// undisturbed flow, stepped before the case's first sample) to
+    /// [`CaseObserver::save_prelude`], after one of its steps.
+    fn prelude_due(&self) -> bool {
+        false
+    }
+    /// The prelude's state after a step (JSON, opaque to the observer): if the process dies
+    /// before the case's first saved state, the prelude continues from here.
+    fn save_prelude(&mut self, _state: &str) {}
+    /// The prelude state an interrupted case continues from (what
+    /// [`CaseObserver::save_prelude`] got last), taken once.
+    fn resume_prelude(&mut self) -> Option<String> {
+        None
+    }
 }
 
 /// An extrusion's undisturbed steady free surface H̄ (the case without its particles).

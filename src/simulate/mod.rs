@@ -19,7 +19,7 @@ pub mod undisturbed;
 pub use frame::Frame;
 pub use run::{CaseResult, RunStatus};
 pub use settings::Settings;
-pub use undisturbed::Undisturbed;
+pub use undisturbed::{Undisturbed, UndisturbedFlow};
 
 use crate::config::{CaseSpec, Geometry};
 use crate::geometry::Confinement;
@@ -178,17 +178,37 @@ impl Simulation {
 
     /// Computes what a case needs before its first sample and is not part of a step: an
     /// extrusion's undisturbed steady surface H̄ (`undisturbed`; kept in the saved state, so a
-    /// restored case does not compute it again). Nothing for other cases.
+    /// restored case does not compute it again), in one go. Nothing for other cases.
     ///
     /// # Errors
     /// [`MovingError`] if the undisturbed flow fails.
     pub fn settle(&mut self) -> Result<(), MovingError> {
-        if let Some(case) = self.unsettled.take() {
-            if self.undisturbed.is_none() {
-                self.undisturbed = undisturbed::undisturbed_surface(&case)?;
+        if let Some(mut prelude) = self.prelude()? {
+            while !prelude.done() {
+                prelude.step()?;
             }
+            self.settle_with(prelude.finish());
         }
         Ok(())
+    }
+
+    /// What [`settle`](Self::settle) steps, for a caller that saves it on the way (the case
+    /// runner): an extrusion's undisturbed flow at its start, unless its surface is known
+    /// already (from a saved state). `None` for other cases and once settled.
+    ///
+    /// # Errors
+    /// [`MovingError`] if the undisturbed flow's set-up fails.
+    pub fn prelude(&mut self) -> Result<Option<UndisturbedFlow>, MovingError> {
+        match &self.unsettled {
+            Some(case) if self.undisturbed.is_none() => UndisturbedFlow::new(case),
+            _ => Ok(None),
+        }
+    }
+
+    /// Takes the undisturbed surface a [`prelude`](Self::prelude) reached.
+    pub fn settle_with(&mut self, undisturbed: Undisturbed) {
+        self.unsettled = None;
+        self.undisturbed = Some(undisturbed);
     }
 
     /// The undisturbed steady surface of an extrusion, once [`settle`](Self::settle)d.

@@ -82,7 +82,7 @@ pub fn run_case(case: &CaseSpec, obs: &mut dyn CaseObserver) -> CaseResult {
         }
     }
     // (an extrusion's undisturbed surface, unless the saved state has it)
-    if let Err(e) = sim.settle() {
+    if let Err(e) = settle(&mut sim, obs) {
         return ended_by(e, 0, 0.0);
     }
     if resumed.is_none() {
@@ -136,6 +136,29 @@ pub fn run_case(case: &CaseSpec, obs: &mut dyn CaseObserver) -> CaseResult {
     }
     // every end (end time, stop, contact) is a finished case: the observer classifies it
     finished(&sim)
+}
+
+/// Steps the case's prelude (an extrusion's undisturbed flow) to its end, continuing from the
+/// observer's saved prelude state if it has one (one that does not fit starts it over) and
+/// handing it its state when due.
+fn settle(sim: &mut Simulation, obs: &mut dyn CaseObserver) -> Result<(), MovingError> {
+    let Some(mut prelude) = sim.prelude()? else {
+        return Ok(());
+    };
+    if let Some(saved) = obs.resume_prelude() {
+        if prelude.restore(&saved).is_err() {
+            // (a restore that failed half-way leaves a flow of neither state)
+            prelude = sim.prelude()?.expect("a case with a prelude has one again");
+        }
+    }
+    while !prelude.done() {
+        prelude.step()?;
+        if obs.prelude_due() {
+            obs.save_prelude(&prelude.checkpoint());
+        }
+    }
+    sim.settle_with(prelude.finish());
+    Ok(())
 }
 
 fn finished(sim: &Simulation) -> CaseResult {

@@ -19,7 +19,7 @@ use crate::config::SweepSpec;
 use crate::observe::OutcomeKind;
 use crate::store::{CaseRecord, ClaimResult, Store, StoreError};
 
-pub use super::recorder::{resume_path, saved_state, states_dir};
+pub use super::recorder::{prelude_path, resume_path, saved_state, states_dir};
 
 /// Options of one sweep invocation.
 #[derive(Debug, Clone)]
@@ -442,6 +442,7 @@ fn run_one(case: &PlannedCase, ctx: &CaseContext<'_>) -> Result<CaseRun, StoreEr
     store.finish_case(case_id, &record)?;
     // a finished case (whatever its outcome) is never resumed
     std::fs::remove_file(&resume_path).ok();
+    std::fs::remove_file(prelude_path(&ctx.opts.db, &case.id)).ok();
     if let Some(bar) = bar {
         ctx.progress.finish_case(bar, &summary);
     }

@@ -37,6 +37,8 @@ pub(super) struct Recorder<'a> {
     progress: &'a Progress,
     /// Where the solver state goes ([`resume_path`]).
     pub(super) resume_path: PathBuf,
+    /// Where the case's prelude state goes ([`prelude_path`]).
+    prelude_path: PathBuf,
     state_every: Duration,
     last_state: Instant,
     /// The database (for the directory of its saved states).
@@ -81,6 +83,7 @@ impl<'a> Recorder<'a> {
             bar: Some(bar),
             progress: ctx.progress,
             resume_path: resume_path(&ctx.opts.db, hash),
+            prelude_path: prelude_path(&ctx.opts.db, hash),
             state_every: ctx.opts.state_every,
             last_state: Instant::now(),
             db: &ctx.opts.db,
@@ -278,6 +281,74 @@ impl CaseObserver for Recorder<'_> {
     fn resume_state(&mut self) -> Option<String> {
         self.resume_state.take()
     }
+
+    fn prelude_due(&self) -> bool {
+        self.last_state.elapsed() >= self.state_every
+    }
+
+    fn save_prelude(&mut self, state: &str) {
+        let written = self.write_prelude(state).and_then(|()| match self.publish {
+            Some(dir) => crate::store::shard::publish(self.store, &states_dir(self.db), dir)
+                .map_err(|e| e.to_string()),
+            None => Ok(()),
+        });
+        if let Err(e) = written {
+            self.io_failed("saved state", e);
+        }
+        self.last_state = Instant::now();
+    }
+
+    fn resume_prelude(&mut self) -> Option<String> {
+        let text = std::fs::read_to_string(&self.prelude_path).ok()?;
+        let saved = serde_json::from_str::<PreludeFile>(&text)
+            .ok()
+            .filter(|p| p.format == RESUME_FORMAT && p.case_hash == self.hash)?;
+        self.progress.log(&format!(
+            "resume {} ({}): its prelude (the undisturbed flow) from its saved state, saved by {}",
+            self.spec_label(),
+            self.hash,
+            saved.code_version
+        ));
+        Some(saved.state.get().to_string())
+    }
+}
+
+impl Recorder<'_> {
+    /// Writes the prelude file (write-then-rename, as the resume file).
+    fn write_prelude(&self, state: &str) -> Result<(), String> {
+        let file = PreludeFile {
+            format: RESUME_FORMAT,
+            case_hash: self.hash.to_string(),
+            code_version: crate::store::code_version(),
+            state: serde_json::value::RawValue::from_string(state.to_string())
+                .map_err(|e| format!("prelude state is not JSON: {e}"))?,
+        };
+        let json = serde_json::to_string(&file).map_err(|e| e.to_string())?;
+        let io = |e: std::io::Error| format!("{}: {e}", self.prelude_path.display());
+        if let Some(dir) = self.prelude_path.parent() {
+            std::fs::create_dir_all(dir).map_err(io)?;
+        }
+        let tmp = self.prelude_path.with_extension("json.tmp");
+        std::fs::write(&tmp, json).map_err(io)?;
+        std::fs::rename(&tmp, &self.prelude_path).map_err(io)
+    }
+}
+
+/// A case's prelude state (an extrusion's undisturbed flow on its way to the steady surface,
+/// before the case's first sample): the runner's own, opaque, after one of the prelude's steps.
+#[derive(serde::Serialize, serde::Deserialize)]
+struct PreludeFile {
+    format: u32,
+    case_hash: String,
+    /// The build that wrote it.
+    code_version: String,
+    state: Box<serde_json::value::RawValue>,
+}
+
+/// Where the saved prelude of case `hash` of database `db` lives: beside its resume file,
+/// `<db dir>/<db stem>/<hash>.prelude.resume.json` (published with the saved states of a shard).
+pub fn prelude_path(db: &std::path::Path, hash: &str) -> PathBuf {
+    resume_path(db, hash).with_file_name(format!("{hash}.prelude.resume.json"))
 }
 
 /// Where the saved state of case `hash` of database `db` lives: `<db dir>/<db stem>/<hash>.resume.json`
