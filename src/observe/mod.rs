@@ -148,6 +148,9 @@ pub trait CaseObserver {
     /// The undisturbed steady free surface H̄ of an extrusion (before the first step;
     /// separations are measured from it).
     fn on_undisturbed_surface(&mut self, _surface: &UndisturbedSurface) {}
+    /// A step of the case's prelude (an extrusion's undisturbed flow, before the first sample)
+    /// reached time `t` after `steps` steps: for progress displays.
+    fn on_prelude_step(&mut self, _t: f64, _steps: usize) {}
     /// True when the runner should hand the state of the case's prelude (an extrusion's
     /// undisturbed flow, stepped before the case's first sample) to
     /// [`CaseObserver::save_prelude`], after one of its steps.

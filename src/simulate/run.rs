@@ -153,6 +153,7 @@ fn settle(sim: &mut Simulation, obs: &mut dyn CaseObserver) -> Result<(), Moving
     }
     while !prelude.done() {
         prelude.step()?;
+        obs.on_prelude_step(prelude.time(), prelude.steps());
         if obs.prelude_due() {
             obs.save_prelude(&prelude.checkpoint());
         }

@@ -84,6 +84,11 @@ impl UndisturbedFlow {
         self.change() < STEADY_HEIGHT_TOL || self.flow.time() >= UNDISTURBED_T_MAX
     }
 
+    /// The time reached.
+    pub fn time(&self) -> f64 {
+        self.flow.time()
+    }
+
     /// Steps taken so far (restored ones included).
     pub fn steps(&self) -> usize {
         self.steps

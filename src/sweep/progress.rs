@@ -179,6 +179,20 @@ impl CaseProgress {
             self.label, self.t_end, self.dt
         ));
     }
+
+    /// The case's prelude (an extrusion's undisturbed flow to its steady surface, before the
+    /// case's time starts) reached time `t` after `steps` steps: said as such, the bar at 0.
+    pub fn prelude(&mut self, t: f64, steps: usize) {
+        let Some(bar) = &self.bar else { return };
+        if self.last_draw.elapsed() < REDRAW_INTERVAL {
+            return;
+        }
+        self.last_draw = Instant::now();
+        bar.set_message(format!(
+            "{} prelude (undisturbed flow to the steady surface): t={t:.3} after {steps} steps",
+            self.label
+        ));
+    }
 }
 
 #[cfg(test)]

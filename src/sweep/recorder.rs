@@ -282,6 +282,12 @@ impl CaseObserver for Recorder<'_> {
         self.resume_state.take()
     }
 
+    fn on_prelude_step(&mut self, t: f64, steps: usize) {
+        if let Some(bar) = &mut self.bar {
+            bar.prelude(t, steps);
+        }
+    }
+
     fn prelude_due(&self) -> bool {
         self.last_state.elapsed() >= self.state_every
     }
