@@ -417,7 +417,10 @@ pub fn run_status_to(args: &StatusArgs, out: &mut dyn Write) -> anyhow::Result<E
     for (db, c) in running {
         let saved = match crate::sweep::engine::saved_state(db, &c.hash) {
             Some((step, t, _)) => format!("step {step}, t = {t:.2}"),
-            None => "none (restarts at t = 0)".into(),
+            None => match crate::sweep::engine::saved_prelude(db, &c.hash) {
+                Some(steps) => format!("prelude step {steps} (t = 0 follows it)"),
+                None => "none (restarts at t = 0)".into(),
+            },
         };
         let process = match c.alive {
             Some(true) => "running",

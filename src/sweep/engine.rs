@@ -19,7 +19,7 @@ use crate::config::SweepSpec;
 use crate::observe::OutcomeKind;
 use crate::store::{CaseRecord, ClaimResult, Store, StoreError};
 
-pub use super::recorder::{prelude_path, resume_path, saved_state, states_dir};
+pub use super::recorder::{prelude_path, resume_path, saved_prelude, saved_state, states_dir};
 
 /// Options of one sweep invocation.
 #[derive(Debug, Clone)]

@@ -393,6 +393,22 @@ pub fn saved_state(db: &std::path::Path, hash: &str) -> Option<(u64, f64, String
         .map(|h| (h.step, h.t, h.code_version))
 }
 
+/// The prelude steps in the saved prelude state of a case (an extrusion's undisturbed flow), if
+/// it has a readable one.
+pub fn saved_prelude(db: &std::path::Path, hash: &str) -> Option<usize> {
+    #[derive(serde::Deserialize)]
+    struct Steps {
+        steps: usize,
+    }
+    let text = std::fs::read_to_string(prelude_path(db, hash)).ok()?;
+    let file = serde_json::from_str::<PreludeFile>(&text)
+        .ok()
+        .filter(|p| p.format == RESUME_FORMAT && p.case_hash == hash)?;
+    serde_json::from_str::<Steps>(file.state.get())
+        .ok()
+        .map(|s| s.steps)
+}
+
 /// Layout version of the resume file.
 const RESUME_FORMAT: u32 = 1;
 
