@@ -141,14 +141,7 @@ impl<'a> Recorder<'a> {
                 .map_err(|e| format!("solver state is not JSON: {e}"))?,
         };
         let json = serde_json::to_string(&file).map_err(|e| e.to_string())?;
-        let io = |e: std::io::Error| format!("{}: {e}", self.resume_path.display());
-        if let Some(dir) = self.resume_path.parent() {
-            std::fs::create_dir_all(dir).map_err(io)?;
-        }
-        // write-then-rename: a kill leaves the previous state or this one, never half of one
-        let tmp = self.resume_path.with_extension("json.tmp");
-        std::fs::write(&tmp, json).map_err(io)?;
-        std::fs::rename(&tmp, &self.resume_path).map_err(io)
+        write_atomically(&self.resume_path, &json)
     }
 
     /// Keeps the first snapshot (`what` = "snapshot") or saved-state error and says so at once.
@@ -263,19 +256,8 @@ impl CaseObserver for Recorder<'_> {
     }
 
     fn save_state(&mut self, step: u64, state: &str) {
-        let written = self
-            .write_state(step, state)
-            .and_then(|()| match self.publish {
-                // a shard: the database and the state leave the node at once (a task killed by its
-                // time limit loses its local disk)
-                Some(dir) => crate::store::shard::publish(self.store, &states_dir(self.db), dir)
-                    .map_err(|e| e.to_string()),
-                None => Ok(()),
-            });
-        if let Err(e) = written {
-            self.io_failed("saved state", e);
-        }
-        self.last_state = Instant::now();
+        let written = self.write_state(step, state);
+        self.saved(written);
     }
 
     fn resume_state(&mut self) -> Option<String> {
@@ -293,15 +275,8 @@ impl CaseObserver for Recorder<'_> {
     }
 
     fn save_prelude(&mut self, state: &str) {
-        let written = self.write_prelude(state).and_then(|()| match self.publish {
-            Some(dir) => crate::store::shard::publish(self.store, &states_dir(self.db), dir)
-                .map_err(|e| e.to_string()),
-            None => Ok(()),
-        });
-        if let Err(e) = written {
-            self.io_failed("saved state", e);
-        }
-        self.last_state = Instant::now();
+        let written = self.write_prelude(state);
+        self.saved(written);
     }
 
     fn resume_prelude(&mut self) -> Option<String> {
@@ -320,7 +295,22 @@ impl CaseObserver for Recorder<'_> {
 }
 
 impl Recorder<'_> {
-    /// Writes the prelude file (write-then-rename, as the resume file).
+    /// After a saved state (`written`: the resume or the prelude file): a shard publishes its
+    /// database and states at once (a task killed by its time limit loses its local disk); the
+    /// first failure stops the case; the clock of [`CaseObserver::state_due`] restarts.
+    fn saved(&mut self, written: Result<(), String>) {
+        let published = written.and_then(|()| match self.publish {
+            Some(dir) => crate::store::shard::publish(self.store, &states_dir(self.db), dir)
+                .map_err(|e| e.to_string()),
+            None => Ok(()),
+        });
+        if let Err(e) = published {
+            self.io_failed("saved state", e);
+        }
+        self.last_state = Instant::now();
+    }
+
+    /// Writes the prelude file.
     fn write_prelude(&self, state: &str) -> Result<(), String> {
         let file = PreludeFile {
             format: RESUME_FORMAT,
@@ -330,14 +320,20 @@ impl Recorder<'_> {
                 .map_err(|e| format!("prelude state is not JSON: {e}"))?,
         };
         let json = serde_json::to_string(&file).map_err(|e| e.to_string())?;
-        let io = |e: std::io::Error| format!("{}: {e}", self.prelude_path.display());
-        if let Some(dir) = self.prelude_path.parent() {
-            std::fs::create_dir_all(dir).map_err(io)?;
-        }
-        let tmp = self.prelude_path.with_extension("json.tmp");
-        std::fs::write(&tmp, json).map_err(io)?;
-        std::fs::rename(&tmp, &self.prelude_path).map_err(io)
+        write_atomically(&self.prelude_path, &json)
     }
+}
+
+/// Writes `json` to `path` (its directory made if needed) by write-then-rename: a kill leaves the
+/// previous file or this one, never half of one.
+fn write_atomically(path: &std::path::Path, json: &str) -> Result<(), String> {
+    let io = |e: std::io::Error| format!("{}: {e}", path.display());
+    if let Some(dir) = path.parent() {
+        std::fs::create_dir_all(dir).map_err(io)?;
+    }
+    let tmp = path.with_extension("json.tmp");
+    std::fs::write(&tmp, json).map_err(io)?;
+    std::fs::rename(&tmp, path).map_err(io)
 }
 
 /// A case's prelude state (an extrusion's undisturbed flow on its way to the steady surface,
