@@ -303,18 +303,27 @@ fn a_killed_adaptive_case_continues_with_the_steps_it_would_have_taken() {
     );
     assert_eq!(rejected("killed.db"), whole);
     // and what its flow solves cost (this process: the resumed run counts from its resume)
-    let solves: i64 = Store::open_read_only(&dir.join("whole.db"))
-        .unwrap()
-        .connection()
-        .query_row(
-            "SELECT json_extract(final_json, '$.flow_solver.solves') FROM outcomes",
-            [],
-            |r| r.get(0),
-        )
-        .unwrap();
+    let (solves, factorizations, placements): (i64, i64, i64) =
+        Store::open_read_only(&dir.join("whole.db"))
+            .unwrap()
+            .connection()
+            .query_row(
+                "SELECT json_extract(final_json, '$.flow_solver.solves'), \
+                 json_extract(final_json, '$.flow_solver.factorizations'), \
+                 json_extract(final_json, '$.flow_solver.placements') FROM outcomes",
+                [],
+                |r| Ok((r.get(0)?, r.get(1)?, r.get(2)?)),
+            )
+            .unwrap();
     assert!(
         solves as usize > steps,
         "{solves} flow solves for {steps} steps"
+    );
+    // the particles move: the flow matrix is factored (by its band) every step, the far field
+    // once per placement (at least the first)
+    assert!(
+        factorizations as usize >= steps && placements >= 1 && placements < factorizations,
+        "{factorizations} factorizations, {placements} placements for {steps} steps"
     );
 }
 

@@ -127,6 +127,13 @@ pub struct FlowSolverStats {
     pub krylov_iterations: usize,
     /// Switches of the symmetric-part solver to a whole LU (each lasts for its pattern).
     pub lu_fallbacks: usize,
+    /// Numeric factorizations of the flow matrix (the whole matrix's, or the band's).
+    pub factorizations: usize,
+    /// Pattern (and symbolic analysis) rebuilds: a particle left the reach of its pattern.
+    pub pattern_rebuilds: usize,
+    /// Placements of the band solver ([`FlowFactorization::Band`]: far-field factorizations,
+    /// each about a whole factorization and a condensation onto the band's interface).
+    pub placements: usize,
 }
 
 /// A Stokes solution in nodal form.

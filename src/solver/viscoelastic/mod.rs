@@ -187,9 +187,15 @@ impl ViscoelasticFlow {
         self.stokes.refactorizations
     }
 
-    /// The flow solves' GMRES iterations and LU fallbacks so far.
+    /// The flow solves' GMRES iterations, LU fallbacks, factorizations, pattern rebuilds and
+    /// band placements so far.
     pub fn flow_solver_stats(&self) -> crate::solver::flow::FlowSolverStats {
-        self.stokes.stats
+        crate::solver::flow::FlowSolverStats {
+            factorizations: self.stokes.refactorizations,
+            pattern_rebuilds: self.stokes.pattern_rebuilds,
+            placements: self.stokes.placements,
+            ..self.stokes.stats
+        }
     }
 
     /// How the log-conformation transport steps so far were solved.
