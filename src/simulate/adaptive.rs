@@ -93,13 +93,28 @@ pub const LAG_TOL_FACTOR: f64 = 1.0;
 /// Smallest error taken into the controller (an exactly predicted step would propose ∞).
 const ERROR_FLOOR: f64 = 1e-10;
 
+/// Scaled error (1: the tolerance) above which a step at the minimum Δt ends the run as
+/// diverged instead of being kept. At the minimum the controller keeps steps above the
+/// tolerance (it may not shrink further), but a step a thousand times above it is not a
+/// slightly-too-large step: the particles' positions or velocities jumped. Measured: the Couette
+/// case that failed on 2026-12-05 (Wi = 1, r0* = 1/2, t* = 160.18) kept a step at Δt = 0.002
+/// whose particle velocity had gone from 0.14 to 243 (a scaled error ≈ 1e5), and its next step
+/// failed in the ALE map with the advice to reduce Δt.
+pub const DIVERGED_ERROR: f64 = 1e3;
+
 /// Whether a step stands.
-#[derive(Debug, Clone, Copy, PartialEq, Eq)]
+#[derive(Debug, Clone, Copy, PartialEq)]
 pub enum Verdict {
     /// Keep the step; the next one is [`StepController::dt`].
     Accept,
     /// Redo the step from its saved state with [`StepController::dt`].
     Reject,
+    /// The step's scaled error is above [`DIVERGED_ERROR`] at the minimum Δt: the run has
+    /// diverged (a smaller step is not allowed and would not help).
+    Diverged {
+        /// The scaled error.
+        error: f64,
+    },
 }
 
 /// The controller's state: part of a saved state, so that a resumed run takes the steps the
@@ -170,6 +185,9 @@ impl StepController {
             self.rejected += 1;
             return Verdict::Reject;
         }
+        if e > DIVERGED_ERROR {
+            return Verdict::Diverged { error: e };
+        }
         let memory = self.last_error.map_or(1.0, |last| (last / e).powf(K_P));
         let mut factor = (SAFETY * e.powf(-K_I) * memory).clamp(MIN_RATIO, MAX_RATIO);
         if (KEEP_BAND.0..KEEP_BAND.1).contains(&factor) {
@@ -236,7 +254,7 @@ mod tests {
     }
 
     #[test]
-    fn a_large_error_rejects_and_shrinks_the_step_but_not_below_min() {
+    fn a_large_error_rejects_and_shrinks_the_step_but_not_below_min_where_a_huge_one_diverges() {
         let mut c = controller();
         c.judge(0.02, None, f64::INFINITY);
         assert_eq!(c.judge(0.02, Some(4.0), f64::INFINITY), Verdict::Reject);
@@ -248,8 +266,20 @@ mod tests {
         assert_eq!(
             c.judge(0.001, Some(100.0), f64::INFINITY),
             Verdict::Accept,
-            "at min a step is taken whatever its error"
+            "at min a step above the tolerance is taken"
         );
+        assert_eq!(
+            c.judge(0.001, Some(DIVERGED_ERROR), f64::INFINITY),
+            Verdict::Accept,
+            "up to DIVERGED_ERROR"
+        );
+        // beyond it the run has diverged: the velocity jump of 2026-12-05 (≈ 1e5)
+        assert_eq!(
+            c.judge(0.001, Some(1.2e5), f64::INFINITY),
+            Verdict::Diverged { error: 1.2e5 }
+        );
+        // above the minimum the same error only rejects
+        assert_eq!(c.judge(0.004, Some(1.2e5), f64::INFINITY), Verdict::Reject);
     }
 
     #[test]

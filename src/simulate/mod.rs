@@ -252,6 +252,13 @@ impl Simulation {
             match control.judge(dt, error, limit) {
                 Verdict::Accept => return Ok(StepOutcome::Stepped(report)),
                 Verdict::Reject => self.stepper.restore(before)?,
+                Verdict::Diverged { error } => {
+                    return Err(MovingError::Jumped {
+                        step: self.stepper.flow().history().steps(),
+                        error,
+                        dt,
+                    })
+                }
             }
         }
     }

@@ -201,6 +201,7 @@ fn diverged(e: &MovingError) -> bool {
     matches!(
         e,
         MovingError::NonFinite { .. }
+            | MovingError::Jumped { .. }
             | MovingError::Ale {
                 source: AleError::NonFinite { .. },
                 ..

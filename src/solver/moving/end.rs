@@ -45,6 +45,18 @@ pub enum MovingError {
         /// Step.
         step: usize,
     },
+    /// The step's error stays far above the tolerance at the smallest Δt the adaptive step
+    /// allows ([`crate::simulate::adaptive::DIVERGED_ERROR`]): the solution jumped, and a smaller
+    /// step does not help.
+    #[error("step {step}: the step's error is {error:.1e} times the tolerance at the minimum Δt = {dt}: the particles' motion jumped (not a too-large step)")]
+    Jumped {
+        /// Step.
+        step: usize,
+        /// The scaled error (1: the tolerance).
+        error: f64,
+        /// The step size, the minimum.
+        dt: f64,
+    },
     /// The mesh that follows the particles cannot be built around their positions.
     #[error("step {step}: mesh that follows the particles: {reason}")]
     Follow {
@@ -77,7 +89,7 @@ impl MovingError {
             MovingError::Ale { .. } | MovingError::Follow { .. } => "ale_map",
             MovingError::Flow(ViscoelasticError::Flow { .. }) => "solve_flow",
             MovingError::Flow(ViscoelasticError::Stress(_)) => "solve_stress",
-            MovingError::NonFinite { .. } => "correct",
+            MovingError::NonFinite { .. } | MovingError::Jumped { .. } => "correct",
             MovingError::SurfaceEscaped { .. } => "advance_surface",
             MovingError::Flow(_) | MovingError::Setup(_) => "set-up",
         }
