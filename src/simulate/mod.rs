@@ -183,11 +183,8 @@ impl Simulation {
     /// # Errors
     /// [`MovingError`] if the undisturbed flow fails.
     pub fn settle(&mut self) -> Result<(), MovingError> {
-        if let Some(mut prelude) = self.prelude()? {
-            while !prelude.done() {
-                prelude.step()?;
-            }
-            self.settle_with(prelude.finish());
+        if let Some(prelude) = self.prelude()? {
+            self.settle_with(prelude.run_to_end()?);
         }
         Ok(())
     }

@@ -125,6 +125,17 @@ impl UndisturbedFlow {
         Ok(())
     }
 
+    /// Steps to the end ([`done`](Self::done)) and returns the surface reached.
+    ///
+    /// # Errors
+    /// [`MovingError`] if a step fails.
+    pub fn run_to_end(mut self) -> Result<Undisturbed, MovingError> {
+        while !self.done() {
+            self.step()?;
+        }
+        Ok(self.finish())
+    }
+
     /// The surface reached.
     pub fn finish(self) -> Undisturbed {
         Undisturbed {
@@ -145,11 +156,7 @@ impl UndisturbedFlow {
 /// # Errors
 /// [`MovingError`] if the set-up or a step fails.
 pub fn undisturbed_surface(case: &CaseSpec) -> Result<Option<Undisturbed>, MovingError> {
-    let Some(mut flow) = UndisturbedFlow::new(case)? else {
-        return Ok(None);
-    };
-    while !flow.done() {
-        flow.step()?;
-    }
-    Ok(Some(flow.finish()))
+    UndisturbedFlow::new(case)?
+        .map(UndisturbedFlow::run_to_end)
+        .transpose()
 }

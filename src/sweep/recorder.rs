@@ -280,10 +280,7 @@ impl CaseObserver for Recorder<'_> {
     }
 
     fn resume_prelude(&mut self) -> Option<String> {
-        let text = std::fs::read_to_string(&self.prelude_path).ok()?;
-        let saved = serde_json::from_str::<PreludeFile>(&text)
-            .ok()
-            .filter(|p| p.format == RESUME_FORMAT && p.case_hash == self.hash)?;
+        let saved = PreludeFile::load(&self.prelude_path, self.hash)?;
         self.progress.log(&format!(
             "resume {} ({}): its prelude (the undisturbed flow) from its saved state, saved by {}",
             self.spec_label(),
@@ -347,6 +344,16 @@ struct PreludeFile {
     state: Box<serde_json::value::RawValue>,
 }
 
+impl PreludeFile {
+    /// The saved prelude of case `hash`, if there is a readable one of this layout.
+    fn load(path: &std::path::Path, hash: &str) -> Option<PreludeFile> {
+        let text = std::fs::read_to_string(path).ok()?;
+        serde_json::from_str::<PreludeFile>(&text)
+            .ok()
+            .filter(|p| p.format == RESUME_FORMAT && p.case_hash == hash)
+    }
+}
+
 /// Where the saved prelude of case `hash` of database `db` lives: beside its resume file,
 /// `<db dir>/<db stem>/<hash>.prelude.resume.json` (published with the saved states of a shard).
 pub fn prelude_path(db: &std::path::Path, hash: &str) -> PathBuf {
@@ -396,10 +403,7 @@ pub fn saved_prelude(db: &std::path::Path, hash: &str) -> Option<usize> {
     struct Steps {
         steps: usize,
     }
-    let text = std::fs::read_to_string(prelude_path(db, hash)).ok()?;
-    let file = serde_json::from_str::<PreludeFile>(&text)
-        .ok()
-        .filter(|p| p.format == RESUME_FORMAT && p.case_hash == hash)?;
+    let file = PreludeFile::load(&prelude_path(db, hash), hash)?;
     serde_json::from_str::<Steps>(file.state.get())
         .ok()
         .map(|s| s.steps)
