@@ -12,6 +12,7 @@ use xpflow::config::{CaseSpec, SweepSpec};
 use xpflow::observe::OutcomeKind;
 use xpflow::store::query::QueryKind;
 use xpflow::store::{Format, Store};
+use xpflow::sweep::engine::{failed_state_path, resume_path};
 use xpflow::sweep::{case_id, expand, run_sweep, FakeBehaviour, FakeRunner, SweepOptions};
 
 /// Environment variable that turns the ignored `kill_child` test into the child of the kill test.
@@ -373,4 +374,60 @@ fn two_sweeps_write_one_database_at_once() {
     }
     let outcomes: i64 = scalar(&store, "SELECT COUNT(*) FROM outcomes");
     assert_eq!(outcomes, 10);
+}
+
+/// A case that fails (a panic) or diverges keeps its last saved state for a diagnosis, as
+/// `<hash>.failed.resume.json`; renamed back to `<hash>.resume.json`, `--retry-failed` continues
+/// the failed case from it; a case that runs through keeps none.
+#[test]
+fn a_failed_case_keeps_its_last_saved_state() {
+    let dir = scratch("kept_state");
+    let sweep = parse(&sweep_text("kept_state", "[3, 4, 6]", "[2]", 30), &dir);
+    let cases = expand(&sweep).unwrap();
+    let db = dir.join("r.db");
+    let mut o = opts(&db, 1);
+    o.state_every = Duration::ZERO;
+    let s = run_sweep(&sweep, &cases, &FakeRunner::new(by_wi), &o).unwrap();
+    assert_eq!((s.ran, s.failed), (3, 1));
+    let id_of = |wi: f64| {
+        cases
+            .iter()
+            .find(|c| c.spec.fluid.wi == wi)
+            .unwrap()
+            .id
+            .clone()
+    };
+    let (diverged, panicked, ran_through) = (id_of(3.0), id_of(4.0), id_of(6.0));
+    for id in [&diverged, &panicked] {
+        let kept = failed_state_path(&db, id);
+        let text = std::fs::read_to_string(&kept)
+            .unwrap_or_else(|e| panic!("no kept state {}: {e}", kept.display()));
+        // the fake runner's trouble comes at step 5: the last state saved is step 4's
+        assert!(
+            text.contains("\"step\":4"),
+            "{}",
+            &text[..text.len().min(200)]
+        );
+        assert!(!resume_path(&db, id).exists());
+    }
+    assert!(!failed_state_path(&db, &ran_through).exists());
+    assert!(!resume_path(&db, &ran_through).exists());
+    // after a fix, the failed case continues from its kept state
+    std::fs::rename(
+        failed_state_path(&db, &panicked),
+        resume_path(&db, &panicked),
+    )
+    .unwrap();
+    o.retry_failed = true;
+    let fixed = FakeRunner::new(|_| FakeBehaviour::Produce(OutcomeKind::Timeout));
+    let again = run_sweep(&sweep, &cases, &fixed, &o).unwrap();
+    assert_eq!((again.ran, again.failed), (1, 0));
+    let store = Store::open(&db).unwrap();
+    let first: i64 = scalar(
+        &store,
+        "SELECT MIN(step) FROM samples JOIN cases c ON c.id = case_id WHERE c.wi = 4",
+    );
+    let status: String = scalar(&store, "SELECT status FROM cases WHERE wi = 4");
+    assert_eq!((first, status.as_str()), (4, "done"), "resumed at step 5");
+    assert!(!failed_state_path(&db, &panicked).exists());
 }

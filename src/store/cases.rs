@@ -359,8 +359,14 @@ impl Store {
         debug_assert_eq!(claimed, 1, "the row was pending inside this transaction");
         let keep = match resume {
             Some((step, rows)) => {
+                // the state's own step may have been stored after it (the last sample of a run
+                // that failed right after the state was saved): the rows before it must match
                 let have = sample_rows(&tx, id, step).map_err(&err)?;
-                (have == rows).then_some(step as i64)
+                let before = match step.checked_sub(1) {
+                    Some(s) => sample_rows(&tx, id, s).map_err(&err)?,
+                    None => 0,
+                };
+                (have == rows || before == rows).then_some(step as i64)
             }
             None => None,
         };

@@ -19,7 +19,9 @@ use crate::config::SweepSpec;
 use crate::observe::OutcomeKind;
 use crate::store::{CaseRecord, ClaimResult, Store, StoreError};
 
-pub use super::recorder::{prelude_path, resume_path, saved_prelude, saved_state, states_dir};
+pub use super::recorder::{
+    failed_state_path, prelude_path, resume_path, saved_prelude, saved_state, states_dir,
+};
 
 /// Options of one sweep invocation.
 #[derive(Debug, Clone)]
@@ -440,11 +442,33 @@ fn run_one(case: &PlannedCase, ctx: &CaseContext<'_>) -> Result<CaseRun, StoreEr
         settings: ctx.runner.settings(&case.spec).map(|v| v.to_string()),
     };
     store.finish_case(case_id, &record)?;
-    // a finished case (whatever its outcome) is never resumed
+    let kept = if failed || kind == OutcomeKind::Diverged.as_str() {
+        keep_failed_state(&ctx.opts.db, &case.id)
+    } else {
+        // a state kept from an earlier failure is stale once the case has run through
+        std::fs::remove_file(failed_state_path(&ctx.opts.db, &case.id)).ok();
+        None
+    };
+    let summary = match kept {
+        Some(step) => format!("{summary}; its saved state of step {step} kept for a diagnosis"),
+        None => summary,
+    };
+    // a finished case (whatever its outcome) is never resumed (a failed one's state was kept)
     std::fs::remove_file(&resume_path).ok();
     std::fs::remove_file(prelude_path(&ctx.opts.db, &case.id)).ok();
     if let Some(bar) = bar {
         ctx.progress.finish_case(bar, &summary);
     }
     Ok(CaseRun::Ran { kind, failed })
+}
+
+/// A case that failed or diverged keeps its last saved state (the step before its trouble, up to
+/// `--state-every` earlier) at [`failed_state_path`], so that the failure can be reproduced from there in
+/// minutes instead of from t = 0; an older kept state is replaced. The step of the kept state, if
+/// the case had one.
+fn keep_failed_state(db: &std::path::Path, hash: &str) -> Option<u64> {
+    let (step, _, _) = saved_state(db, hash)?;
+    std::fs::rename(resume_path(db, hash), failed_state_path(db, hash))
+        .ok()
+        .map(|()| step)
 }

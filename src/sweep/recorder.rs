@@ -360,6 +360,13 @@ pub fn prelude_path(db: &std::path::Path, hash: &str) -> PathBuf {
     resume_path(db, hash).with_file_name(format!("{hash}.prelude.resume.json"))
 }
 
+/// Where a case that failed or diverged keeps its last saved state, for a diagnosis or a resume
+/// after a fix: beside its resume file, `<db dir>/<db stem>/<hash>.failed.resume.json` (renamed
+/// to `<hash>.resume.json`, the next run of a `failed` case with `--retry-failed` continues from it).
+pub fn failed_state_path(db: &std::path::Path, hash: &str) -> PathBuf {
+    resume_path(db, hash).with_file_name(format!("{hash}.failed.resume.json"))
+}
+
 /// Where the saved state of case `hash` of database `db` lives: `<db dir>/<db stem>/<hash>.resume.json`
 /// (beside the snapshots when the sweep is named like its database, the default), whichever sweep
 /// invocation runs the case.
