@@ -146,16 +146,18 @@ impl Substructured {
             .iter_mut()
             .zip(&k_src)
             .for_each(|(v, &p)| *v = a.values[p]);
-        // K's entries outside Γ × Γ: those that must not change while the band stays
-        let mut k_src: Vec<usize> = (0..k.n())
+        // K's entries outside Γ × Γ (both dofs in K = F ∪ Γ, one of them in F): those that must
+        // not change while the band stays, read from A in its storage order (ascending positions)
+        let in_k = |d: usize| !band[d] || gamma[d];
+        let k_src: Vec<usize> = (0..a.n())
+            .filter(|&j| in_k(j))
             .flat_map(|j| {
-                let (rows, range) = k.column(j);
+                let (rows, range) = a.column(j);
                 rows.iter()
                     .zip(range)
-                    .filter(move |(&i, _)| i < n_far || j < n_far)
+                    .filter(move |(&i, _)| in_k(i) && (!band[i] || !band[j]))
                     .map(|(_, p)| p)
             })
-            .map(|p| k_src[p])
             .collect();
         let k_order: Vec<usize> = (0..k_dofs.len()).collect();
         let mut k_solver = DirectSolver::analyze_with_order(&k, SolverKind::Lblt, &k_order)?;
@@ -163,7 +165,6 @@ impl Substructured {
         let gamma_k: Vec<usize> = (n_far..k_dofs.len()).collect();
         let schur = k_solver.schur_complement(&gamma_k)?;
         let k_trailing = k_solver.trailing_supernodes(&gamma_k)?;
-        k_src.sort_unstable();
         let k_values = k_src.iter().map(|&p| a.values[p]).collect();
 
         let (m, m_src) = submatrix(a, &m_dofs, Some(n_interior));
