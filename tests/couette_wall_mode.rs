@@ -93,7 +93,7 @@ fn growth_rate(samples: &[(f64, f64)]) -> f64 {
 /// The undisturbed Couette flow at Wi = 1 on 45×240: the explicit coupling at Δt = 0.08 grows the
 /// seeded m = 9 wall mode; at Δt = 0.02, or with the semi-implicit stress at 0.08, it does not.
 #[test]
-#[ignore = "about 10 minutes on one core: cargo test --release --test couette_wall_mode -- --ignored --nocapture"]
+#[ignore = "21 min on the shared two-core machine: cargo test --release --test couette_wall_mode -- --ignored --nocapture"]
 fn the_explicit_coupling_grows_the_wall_mode_at_a_large_step() {
     let explicit = growth_rate(&run(Coupling::Explicit, 0.08, T_END, 4.0));
     let small_step = growth_rate(&run(Coupling::Explicit, 0.02, T_END, 4.0));
