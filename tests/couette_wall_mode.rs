@@ -15,7 +15,7 @@ fn geometry() -> CouetteGeometry {
     CouetteGeometry::new(1.0, 4.0, 1.0).expect("valid radii")
 }
 
-/// |m = 9 component| of tr c on the vertex ring nearest r = `ring` (relative to the ring mean).
+/// |Fourier component m| of tr c on the vertex ring at r = `ring` (about the ring mean).
 fn mode(flow: &ViscoelasticFlow, ring: f64, m: f64) -> f64 {
     let mesh = flow.mesh();
     let (mut re, mut im, mut n) = (0.0, 0.0, 0.0);
