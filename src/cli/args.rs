@@ -52,7 +52,7 @@ pub enum Command {
         /// Linear solver.
         #[arg(long, value_enum, default_value_t = SolverArg::Lblt)]
         solver: SolverArg,
-        /// Weissenberg number (cylinder study).
+        /// Weissenberg number (cylinder study; couette-wall-mode: 0 means its default, 1).
         #[arg(long, default_value_t = 0.0)]
         wi: f64,
         /// Element sizes near the cylinder, in units of R (cylinder study; comma-separated,
@@ -186,6 +186,13 @@ pub enum Study {
     /// cylinder approaching a wall, gaps 0.5a … 0.01a, against the lubrication asymptote, on the
     /// element sizes `--h` (units of a; default 0.2,0.1,0.05).
     NearContact,
+    /// The explicit coupling's wall mode in the Couette cell (issue 26): the undisturbed flow
+    /// (45×240, R2/R1 = 4, β = 0.1, α = 0.01) at `--wi` (default 1), seeded with an m = 9
+    /// perturbation at the inner cylinder, to t* = 36 with the explicit coupling at `--dt`
+    /// (default 0.08) and `--dt`/4 and with the semi-implicit stress at `--dt`: the growth rate of
+    /// the mode per t* (≈ 10 min; a Couette set-up's check before a long sweep). The verdict asks
+    /// growth of the first and decay of the other two.
+    CouetteWallMode,
     /// Newtonian extrudate swell (thesis §6.4, Table 6.3, De = 0): the free surface immersed in
     /// the fixed mesh moved by the kinematic equation to steady state; `swell = <H_max/H0>` per
     /// element size `--h` (default 0.1,0.05,0.025; Δt = 0.05 up to t = 40), the extrapolation

@@ -58,6 +58,9 @@ pub fn run(cli: Cli) -> anyhow::Result<ExitCode> {
                 )
             }
             Study::StokesMms | Study::Couette => validate::validate(study, levels, solver.into()),
+            Study::CouetteWallMode => {
+                validate::couette_wall_mode(if wi == 0.0 { 1.0 } else { wi }, dt.unwrap_or(0.08))
+            }
             Study::ExtrudateSwell => extrudate::validate_extrudate_swell(
                 &h.unwrap_or_else(|| validate::default_meshes(study, wi)),
                 &de,

@@ -267,8 +267,12 @@ pub(super) fn validate_particles(
             println!("tolerance (following mesh): {COUETTE_FOLLOW_TOL}");
         }
         Study::NearContact => ok &= near_contact(hs, cut)?,
-        Study::StokesMms | Study::Couette | Study::Cylinder | Study::ExtrudateSwell => {
-            unreachable!("handled by validate, cylinder::validate_cylinder and extrudate")
+        Study::StokesMms
+        | Study::Couette
+        | Study::Cylinder
+        | Study::ExtrudateSwell
+        | Study::CouetteWallMode => {
+            unreachable!("handled by validate, cylinder, extrudate and couette_wall_mode")
         }
     }
     Ok(verdict(ok))
@@ -315,6 +319,30 @@ fn print_frame_runs(
         }
     }
     ok
+}
+
+/// `xpflow validate couette-wall-mode`: the growth rate of the seeded wall mode per coupling and
+/// step (docs/validation.md "The explicit coupling's wall mode").
+pub(super) fn couette_wall_mode(wi: f64, dt: f64) -> anyhow::Result<ExitCode> {
+    use crate::validate::couette_wall_mode::{wall_mode_study, FIT_FROM, MESH, T_END};
+    println!(
+        "undisturbed Couette flow, Wi = {wi}, {}x{} (θ × r), m = 9 seeded at the inner cylinder: \
+         |c9| of tr c on the first vertex ring",
+        MESH[0], MESH[1]
+    );
+    let (runs, passed) = wall_mode_study(wi, dt, &mut |run, t, a| {
+        println!(
+            "{:?} dt = {}: t* = {t:.1} |c9| = {a:.3e}",
+            run.coupling, run.dt
+        );
+    })?;
+    println!(
+        "\n| coupling | Δt | growth of \\|c9\\| per t* over {FIT_FROM}–{T_END} |\n|---|---|---|"
+    );
+    for r in &runs {
+        println!("| {:?} | {} | {:+.3} |", r.coupling, r.dt, r.growth_rate());
+    }
+    Ok(verdict(passed))
 }
 
 /// Element sizes of `xpflow validate` without `--h` (none for the translating-cylinder studies,

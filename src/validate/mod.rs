@@ -1,6 +1,7 @@
 //! Validation studies shared by `xpflow validate`, `make validate` and the test suite: each
 //! returns its measured numbers and a verdict against named thresholds.
 
+pub mod couette_wall_mode;
 pub mod extrudate;
 pub mod moving;
 pub mod near_contact;
