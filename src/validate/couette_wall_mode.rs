@@ -24,11 +24,11 @@ pub const T_END: f64 = 36.0;
 /// frame, adaptive Δt at 0.08) it grew at 0.122, without it at Δt = 0.08 at 0.134.
 pub const GROWING: f64 = 0.05;
 /// Seed amplitude of the log-conformation perturbation.
-const SEED: f64 = 1e-2;
+pub const SEED: f64 = 1e-2;
 /// Radial decay length of the seed away from the inner cylinder.
-const SEED_DEPTH: f64 = 0.1;
+pub const SEED_DEPTH: f64 = 0.1;
 /// How often |c_m| is sampled (time units).
-const SAMPLE_EVERY: f64 = 4.0;
+pub const SAMPLE_EVERY: f64 = 4.0;
 
 /// One run of the seeded undisturbed flow.
 #[derive(Debug, Clone)]
