@@ -9,8 +9,8 @@ use xpflow::validate::couette_wall_mode::{wall_mode_study, WallModeRun, FIT_FROM
 #[test]
 #[ignore = "21 min on the shared two-core machine: cargo test --release --test couette_wall_mode -- --ignored --nocapture"]
 fn the_explicit_coupling_grows_the_wall_mode_at_a_large_step() {
-    let (runs, passed) = wall_mode_study(1.0, 0.08, &mut |run, t, a| {
-        println!("{:?} dt={}: t={t:.2} |c9|={a:.3e}", run.coupling, run.dt);
+    let (runs, passed) = wall_mode_study(1.0, 0.08, &mut |coupling, dt, t, a| {
+        println!("{coupling:?} dt={dt}: t={t:.2} |c9|={a:.3e}");
     })
     .unwrap();
     let rates: Vec<f64> = runs.iter().map(WallModeRun::growth_rate).collect();

@@ -330,11 +330,8 @@ pub(super) fn couette_wall_mode(wi: f64, dt: f64) -> anyhow::Result<ExitCode> {
          |c9| of tr c on the first vertex ring",
         MESH[0], MESH[1]
     );
-    let (runs, passed) = wall_mode_study(wi, dt, &mut |run, t, a| {
-        println!(
-            "{:?} dt = {}: t* = {t:.1} |c9| = {a:.3e}",
-            run.coupling, run.dt
-        );
+    let (runs, passed) = wall_mode_study(wi, dt, &mut |coupling, step, t, a| {
+        println!("{coupling:?} dt = {step}: t* = {t:.2} |c9| = {a:.3e}");
     })?;
     println!(
         "\n| coupling | Δt | growth of \\|c9\\| per t* over {FIT_FROM}–{T_END} |\n|---|---|---|"

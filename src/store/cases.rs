@@ -361,12 +361,12 @@ impl Store {
             Some((step, rows)) => {
                 // the state's own step may have been stored after it (the last sample of a run
                 // that failed right after the state was saved): the rows before it must match
-                let have = sample_rows(&tx, id, step).map_err(&err)?;
-                let before = match step.checked_sub(1) {
-                    Some(s) => sample_rows(&tx, id, s).map_err(&err)?,
-                    None => 0,
-                };
-                (have == rows || before == rows).then_some(step as i64)
+                let fits = sample_rows(&tx, id, step).map_err(&err)? == rows
+                    || match step.checked_sub(1) {
+                        Some(s) => sample_rows(&tx, id, s).map_err(&err)? == rows,
+                        None => rows == 0,
+                    };
+                fits.then_some(step as i64)
             }
             None => None,
         };

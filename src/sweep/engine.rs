@@ -427,6 +427,10 @@ fn run_one(case: &PlannedCase, ctx: &CaseContext<'_>) -> Result<CaseRun, StoreEr
         (None, e) => format!("failed ({})", e.as_deref().unwrap_or("")),
     };
     let failed = outcome.is_none();
+    // a case whose state a diagnosis wants: failed, or ended by a non-physical state
+    let troubled = outcome
+        .as_ref()
+        .is_none_or(|o| o.kind == OutcomeKind::Diverged);
     let kind = outcome
         .as_ref()
         .map_or("failed", |o| o.kind.as_str())
@@ -442,7 +446,7 @@ fn run_one(case: &PlannedCase, ctx: &CaseContext<'_>) -> Result<CaseRun, StoreEr
         settings: ctx.runner.settings(&case.spec).map(|v| v.to_string()),
     };
     store.finish_case(case_id, &record)?;
-    let kept = if failed || kind == OutcomeKind::Diverged.as_str() {
+    let kept = if troubled {
         keep_failed_state(&ctx.opts.db, &case.id)
     } else {
         // a state kept from an earlier failure is stale once the case has run through
