@@ -196,7 +196,7 @@ pub enum Study {
     /// Newtonian extrudate swell (thesis §6.4, Table 6.3, De = 0): the free surface immersed in
     /// the fixed mesh moved by the kinematic equation to steady state; `swell = <H_max/H0>` per
     /// element size `--h` (default 0.1,0.05,0.025; Δt = 0.05 up to t = 40), the extrapolation
-    /// and the verdict against the published 1.188; the profiles as CSV in `--out`.
+    /// and the verdict against the published 1.188; the profiles and each run's approach (per step: swell, max|ΔH| and where) as CSV in `--out`.
     ExtrudateSwell,
 }
 

@@ -12,7 +12,7 @@ use crate::validate::extrudate::{
 
 /// Runs the study at each Deborah number of `des` on the element sizes `hs` (coarse to fine,
 /// each half the last for the extrapolation) with the time step `dt` (default: the study's,
-/// [`swell_dt`]), prints `swell = …` per mesh and writes each steady profile to `out`; the
+/// [`swell_dt`]), prints `swell = …` per mesh and writes each profile and its history to `out`; the
 /// verdict holds when every De passes.
 pub(super) fn validate_extrudate_swell(
     hs: &[f64],
@@ -56,6 +56,18 @@ fn run_mesh(grid: SwellMesh, de: f64, dt: f64, t_max: f64, out: &Path) -> anyhow
     let name = if grid.graded { "graded_" } else { "" };
     std::fs::write(
         out.join(format!("extrudate_swell_de{de}_{name}h{h}.csv")),
+        csv,
+    )?;
+    // how it got there: a surface that is not steady at t_max creeps or oscillates, and where
+    let mut csv = String::from("t,swell,max_dH,dH,x_of_max_dH\n");
+    for s in &r.history {
+        csv += &format!(
+            "{},{},{:e},{:e},{}\n",
+            s.t, s.swell, s.change, s.signed_change, s.x_change
+        );
+    }
+    std::fs::write(
+        out.join(format!("extrudate_swell_de{de}_{name}h{h}_history.csv")),
         csv,
     )?;
     Ok(r)

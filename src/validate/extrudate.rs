@@ -157,8 +157,52 @@ pub struct SwellRun {
     pub die_error: f64,
     /// The surface at the end: (x, H).
     pub profile: Vec<(f64, f64)>,
+    /// How the surface approached its end, one sample per step.
+    pub history: Vec<SwellSample>,
     /// Wall-clock seconds.
     pub seconds: f64,
+}
+
+/// The surface after one step of [`swell`]: whether and where it still moves.
+#[derive(Debug, Clone, Copy, PartialEq)]
+pub struct SwellSample {
+    /// Time after the step.
+    pub t: f64,
+    /// H_max/H0.
+    pub swell: f64,
+    /// max|Hⁿ⁺¹ − Hⁿ| over the surface's nodes (the steady test's quantity).
+    pub change: f64,
+    /// Hⁿ⁺¹ − Hⁿ at that node (its sign: rising or falling).
+    pub signed_change: f64,
+    /// x of that node (0 at the die exit).
+    pub x_change: f64,
+}
+
+impl SwellSample {
+    /// The sample of a step that took the surface from `before` to `after` (heights on the same
+    /// `nodes`).
+    fn between(t: f64, nodes: &[f64], before: &[f64], after: &[f64]) -> Self {
+        let (i, d) = before
+            .iter()
+            .zip(after)
+            .map(|(b, a)| a - b)
+            .enumerate()
+            .fold((0, 0.0), |(i, d), (j, e)| {
+                if e.abs() > f64::abs(d) {
+                    (j, e)
+                } else {
+                    (i, d)
+                }
+            });
+        let max = after.iter().copied().fold(f64::NEG_INFINITY, f64::max);
+        Self {
+            t,
+            swell: max / H0,
+            change: d.abs(),
+            signed_change: d,
+            x_change: nodes[i],
+        }
+    }
 }
 
 /// Errors of the study.
@@ -201,6 +245,15 @@ pub fn swell(grid: SwellMesh, de: f64, dt: f64, t_max: f64) -> Result<SwellRun, 
     let case = grid.case(de, dt, t_max)?;
     let mut sim = Simulation::new(&case)?;
     let mut change = f64::INFINITY;
+    let mut history = Vec::new();
+    let heights = |sim: &Simulation| {
+        sim.stepper()
+            .surface()
+            .expect("an extrusion case has a free surface")
+            .heights()
+            .to_vec()
+    };
+    let mut before = heights(&sim);
     while change >= STEADY_HEIGHT_TOL && !sim.at_end() {
         let step = sim.steps();
         let failed = |source| SwellError::Step { step, source };
@@ -212,6 +265,10 @@ pub fn swell(grid: SwellMesh, de: f64, dt: f64, t_max: f64) -> Result<SwellRun, 
             }
         }
         change = sim.stepper().surface_change().unwrap_or(f64::INFINITY);
+        let after = heights(&sim);
+        let nodes = sim.stepper().surface().expect("a surface").nodes();
+        history.push(SwellSample::between(sim.time(), nodes, &before, &after));
+        before = after;
     }
     let flow = sim.stepper().flow();
     let mesh = flow.mesh();
@@ -249,6 +306,25 @@ pub fn swell(grid: SwellMesh, de: f64, dt: f64, t_max: f64) -> Result<SwellRun, 
             .copied()
             .zip(surface.heights().iter().copied())
             .collect(),
+        history,
         seconds: start.elapsed().as_secs_f64(),
     })
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    #[test]
+    fn a_sample_names_the_largest_change_with_its_sign_and_place() {
+        let nodes = [0.0, 0.5, 1.0, 1.5];
+        let before = [1.0, 1.10, 1.15, 1.16];
+        let after = [1.0, 1.11, 1.13, 1.161];
+        let s = SwellSample::between(2.5, &nodes, &before, &after);
+        assert_eq!(s.t, 2.5);
+        assert_eq!(s.x_change, 1.0, "the node that moved most");
+        assert!((s.signed_change + 0.02).abs() < 1e-12, "falling there");
+        assert!((s.change - 0.02).abs() < 1e-12);
+        assert!((s.swell - 1.161).abs() < 1e-12, "the largest height after the step");
+    }
 }
