@@ -8,6 +8,7 @@ use std::path::{Path, PathBuf};
 use std::sync::Mutex;
 use std::time::{Duration, Instant};
 
+use xpflow::cli::sweep_cmds::{run_status_to, StatusArgs};
 use xpflow::config::{CaseSpec, SweepSpec};
 use xpflow::observe::OutcomeKind;
 use xpflow::store::query::QueryKind;
@@ -412,6 +413,26 @@ fn a_failed_case_keeps_its_last_saved_state() {
     }
     assert!(!failed_state_path(&db, &ran_through).exists());
     assert!(!resume_path(&db, &ran_through).exists());
+    // `xpflow status` names them with the kept state
+    let mut listing = Vec::new();
+    let status_args = StatusArgs {
+        db: vec![db.clone()],
+        submission: vec![],
+    };
+    run_status_to(&status_args, &mut listing).unwrap();
+    let listing = String::from_utf8(listing).unwrap();
+    let failed_part = listing
+        .split("failed or diverged cases")
+        .nth(1)
+        .unwrap_or_else(|| panic!("no failed cases listed:\n{listing}"));
+    for id in [&diverged, &panicked] {
+        let row = failed_part
+            .lines()
+            .find(|l| l.contains(id.as_str()))
+            .unwrap_or_else(|| panic!("{id} not listed:\n{listing}"));
+        assert!(row.contains("step 4, t = "), "{row}");
+    }
+    assert!(!failed_part.contains(ran_through.as_str()), "{listing}");
     // after a fix, the failed case continues from its kept state
     std::fs::rename(
         failed_state_path(&db, &panicked),

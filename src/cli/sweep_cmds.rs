@@ -368,6 +368,7 @@ pub fn run_status_to(args: &StatusArgs, out: &mut dyn Write) -> anyhow::Result<E
         args.db.clone()
     };
     let mut running = Vec::new();
+    let mut failed = Vec::new();
     let mut t = Table {
         columns: [
             "database", "sweep", "cases", "done", "running", "failed", "pending",
@@ -384,6 +385,7 @@ pub fn run_status_to(args: &StatusArgs, out: &mut dyn Write) -> anyhow::Result<E
             Err(e) => return Err(e.into()),
         };
         running.extend(store.running_cases()?.into_iter().map(|c| (db, c)));
+        failed.extend(store.failed_cases()?.into_iter().map(|c| (db, c)));
         for c in store.counts(None)? {
             t.rows.push(vec![
                 db.display().to_string().into(),
@@ -452,5 +454,59 @@ pub fn run_status_to(args: &StatusArgs, out: &mut dyn Write) -> anyhow::Result<E
         )?;
         write!(out, "{}", r.render(Format::Table))?;
     }
+    write_failed(&failed, out)?;
     Ok(ExitCode::SUCCESS)
+}
+
+/// The failed cases of `xpflow status`: why, how far they got, and the state each kept
+/// (`sweep::engine::keep_failed_state`).
+fn write_failed(
+    failed: &[(&PathBuf, crate::store::FailedCase)],
+    out: &mut dyn Write,
+) -> anyhow::Result<()> {
+    if failed.is_empty() {
+        return Ok(());
+    }
+    let mut f = Table {
+        columns: [
+            "database",
+            "sweep",
+            "case",
+            "label",
+            "status",
+            "t reached",
+            "kept state",
+            "error",
+        ]
+        .map(String::from)
+        .to_vec(),
+        rows: Vec::new(),
+    };
+    for (db, c) in failed {
+        let kept = match crate::sweep::engine::saved_failed_state(db, &c.hash) {
+            Some((step, t, _)) => format!("step {step}, t = {t:.2}"),
+            None => "none (restarts at t = 0)".into(),
+        };
+        f.rows.push(vec![
+            db.display().to_string().into(),
+            c.sweep.clone().into(),
+            c.hash.clone().into(),
+            c.label.clone().into(),
+            c.kind.clone().into(),
+            c.t_reached
+                .map_or_else(|| "-".to_string(), |t| format!("{t:.2}"))
+                .into(),
+            kept.into(),
+            c.error.clone().unwrap_or_default().into(),
+        ]);
+    }
+    writeln!(
+        out,
+        "\nfailed or diverged cases (`xpflow sweep FILE --retry-failed` runs the failed ones \
+         again from t = 0; a kept state, <db dir>/<db stem>/<case>.failed.resume.json, \
+         reproduces the trouble, or, renamed to <case>.resume.json, lets the retry continue \
+         from it):"
+    )?;
+    write!(out, "{}", f.render(Format::Table))?;
+    Ok(())
 }

@@ -87,6 +87,24 @@ pub struct RunningCase {
     pub alive: Option<bool>,
 }
 
+/// A case whose run could not be carried out (status `failed`) or ended by the solver's
+/// divergence (status `done`, outcome `diverged`).
+#[derive(Debug, Clone, PartialEq)]
+pub struct FailedCase {
+    /// `failed` or `diverged`.
+    pub kind: String,
+    /// Sweep that registered the case.
+    pub sweep: String,
+    /// Case id.
+    pub hash: String,
+    /// Case label.
+    pub label: String,
+    /// Time the run reached.
+    pub t_reached: Option<f64>,
+    /// Why it failed.
+    pub error: Option<String>,
+}
+
 /// Δt per step between the last two stored samples of a case (`None` with fewer than two).
 fn recent_dt(conn: &rusqlite::Connection, case_id: i64) -> rusqlite::Result<Option<f64>> {
     let mut st = conn.prepare_cached(
@@ -496,6 +514,35 @@ impl Store {
                     t_stored: r.get(6)?,
                     dt_recent: recent_dt(&self.conn, r.get(7)?)?,
                     alive: owner_alive(owner.as_deref(), r.get(5)?, &host),
+                })
+            })
+            .map_err(&err)?;
+        rows.collect::<rusqlite::Result<_>>().map_err(err)
+    }
+
+    /// The failed and the diverged cases, by sweep and registration.
+    pub fn failed_cases(&self) -> Result<Vec<FailedCase>> {
+        let err = self.sql_err();
+        let mut st = self
+            .conn
+            .prepare(
+                "SELECT CASE WHEN c.status = 'failed' THEN 'failed' ELSE 'diverged' END,
+                        s.name, c.case_hash, c.label, c.t_reached, c.error
+                 FROM cases c JOIN sweeps s ON s.id = c.sweep_id
+                 LEFT JOIN outcomes o ON o.case_id = c.id
+                 WHERE c.status = 'failed' OR (c.status = 'done' AND o.kind = 'diverged')
+                 ORDER BY s.name, c.id",
+            )
+            .map_err(&err)?;
+        let rows = st
+            .query_map([], |r| {
+                Ok(FailedCase {
+                    kind: r.get(0)?,
+                    sweep: r.get(1)?,
+                    hash: r.get(2)?,
+                    label: r.get(3)?,
+                    t_reached: r.get(4)?,
+                    error: r.get(5)?,
                 })
             })
             .map_err(&err)?;

@@ -24,7 +24,7 @@ use std::time::Duration;
 
 use rusqlite::{params, Connection, OptionalExtension, TransactionBehavior};
 
-pub use cases::{CaseRecord, Claim, ClaimResult, RunningCase, SweepCounts};
+pub use cases::{CaseRecord, Claim, ClaimResult, FailedCase, RunningCase, SweepCounts};
 pub use outcomes::StoredOutcome;
 pub use table::{Format, Table};
 

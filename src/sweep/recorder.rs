@@ -389,6 +389,17 @@ pub fn states_dir(db: &std::path::Path) -> PathBuf {
 
 /// The step, time and writing build of the saved state of a case, if it has a readable one.
 pub fn saved_state(db: &std::path::Path, hash: &str) -> Option<(u64, f64, String)> {
+    state_header(&resume_path(db, hash))
+}
+
+/// The step, time and writing build of the state a failed case kept ([`failed_state_path`]),
+/// from which `--retry-failed` continues it.
+pub fn saved_failed_state(db: &std::path::Path, hash: &str) -> Option<(u64, f64, String)> {
+    state_header(&failed_state_path(db, hash))
+}
+
+/// The step, time and writing build of the saved state at `path`, if it is readable.
+fn state_header(path: &std::path::Path) -> Option<(u64, f64, String)> {
     #[derive(serde::Deserialize)]
     struct Header {
         format: u32,
@@ -396,7 +407,7 @@ pub fn saved_state(db: &std::path::Path, hash: &str) -> Option<(u64, f64, String
         step: u64,
         t: f64,
     }
-    let text = std::fs::read_to_string(resume_path(db, hash)).ok()?;
+    let text = std::fs::read_to_string(path).ok()?;
     serde_json::from_str::<Header>(&text)
         .ok()
         .filter(|h| h.format == RESUME_FORMAT)

@@ -325,6 +325,9 @@ mod tests {
         assert_eq!(s.x_change, 1.0, "the node that moved most");
         assert!((s.signed_change + 0.02).abs() < 1e-12, "falling there");
         assert!((s.change - 0.02).abs() < 1e-12);
-        assert!((s.swell - 1.161).abs() < 1e-12, "the largest height after the step");
+        assert!(
+            (s.swell - 1.161).abs() < 1e-12,
+            "the largest height after the step"
+        );
     }
 }
