@@ -155,6 +155,24 @@ fn outcomes_divergence_and_rerun() {
         .unwrap();
     let csv = table.render(Format::Csv);
     assert!(csv.starts_with("Wi,N=2,N=3\n1.0,-,-\n2.0,+?,+\n"), "{csv}");
+    // a cell of several cases (initial positions) is '-' only when all of them ended without a
+    // string: the failed Wi = 4 case moved into the cell of a repelling one makes it undecided
+    let move_failed = |wi: f64| {
+        store
+            .connection()
+            .execute(
+                "UPDATE cases SET wi = ?1 WHERE status = 'failed' AND n_particles = 2",
+                [wi],
+            )
+            .unwrap()
+    };
+    assert_eq!(move_failed(1.0), 1);
+    let csv = store
+        .query(&QueryKind::StringFormation, Some("outcomes"), &[])
+        .unwrap()
+        .render(Format::Csv);
+    assert!(csv.starts_with("Wi,N=2,N=3\n1.0,?,-\n2.0,+?,+\n"), "{csv}");
+    assert_eq!(move_failed(4.0), 1);
     let filtered = store
         .query(&QueryKind::Cases, None, &["wi=2".parse().unwrap()])
         .unwrap();

@@ -126,8 +126,10 @@ impl std::str::FromStr for Filter {
 /// What to tabulate.
 #[derive(Debug, Clone, PartialEq)]
 pub enum QueryKind {
-    /// '+' if a string formed, '+?' if it formed only with fewer than two elements across its
-    /// narrowest gap (the outcome's warning), '−' if not, per Wi (rows) × N (columns) — thesis
+    /// '+' if a string formed from some case of the cell (e.g. one of several initial
+    /// positions), '+?' if only with fewer than two elements across its narrowest gap (the
+    /// outcome's warning), '?' if none did yet and a case is not decided (pending, running,
+    /// failed), '−' if every case ended without one, per Wi (rows) × N (columns) — thesis
     /// Table 5.2.
     StringFormation,
     /// Outcome kinds per δ (rows) × Wi (columns) — thesis Fig. 5.26.
@@ -221,8 +223,10 @@ impl Store {
                     };
                     let e = cells.entry((Key(wi), n)).or_insert_with(|| mark.into());
                     // '+' wins over '+?' (a string on a gap of fewer than 2 elements), which
-                    // wins over '-', which wins over '?' (pending).
-                    let rank = |m: &str| ["?", "-", "+?", "+"].iter().position(|k| *k == m);
+                    // wins over '?' (a case not decided: pending, running or failed), which wins
+                    // over '-': a cell is '-' only when every case of it (each initial position)
+                    // ended without a string.
+                    let rank = |m: &str| ["-", "?", "+?", "+"].iter().position(|k| *k == m);
                     if rank(mark) > rank(e) {
                         *e = mark.into();
                     }
