@@ -146,6 +146,16 @@ impl StepController {
         }
     }
 
+    /// Continues the progress of `saved` (its Δt, last error and rejections) under this
+    /// controller's own bounds and rate, those of the case being run: a state saved by a build
+    /// whose defaults differed, or edited, cannot carry other bounds into the run. The saved Δt
+    /// is clipped to [min, max].
+    pub fn resume_from(&mut self, saved: &StepController) {
+        self.dt = saved.dt.clamp(self.spec.min, self.spec.max);
+        self.last_error = saved.last_error;
+        self.rejected = saved.rejected;
+    }
+
     /// Steps tried and redone so far (each costs a step's work beside the accepted ones).
     pub fn rejected(&self) -> u64 {
         self.rejected
@@ -234,6 +244,31 @@ mod tests {
             },
             2.0,
         )
+    }
+
+    #[test]
+    fn a_resumed_controller_keeps_the_cases_bounds_and_the_saved_progress() {
+        let mut saved = controller();
+        saved.judge(0.02, None, f64::INFINITY);
+        saved.judge(0.02, Some(1e-6), f64::INFINITY);
+        assert_eq!(saved.judge(0.04, Some(4.0), f64::INFINITY), Verdict::Reject);
+        // the case as run now: a smaller max than the state was saved with
+        let mut spec = controller().spec;
+        spec.max = 0.015;
+        let mut resumed = StepController::new(spec, 2.0);
+        resumed.resume_from(&saved);
+        assert_eq!(resumed.spec, spec, "the case's bounds, not the state's");
+        assert_eq!(
+            resumed.dt(),
+            0.015,
+            "the saved Δt clipped to the case's max"
+        );
+        assert_eq!(resumed.rejected(), 1);
+        assert_eq!(resumed.last_error, saved.last_error);
+        // within the bounds the saved Δt is taken as it is
+        let mut same = controller();
+        same.resume_from(&saved);
+        assert_eq!((same.dt(), same.rejected()), (saved.dt(), 1));
     }
 
     #[test]

@@ -380,7 +380,8 @@ impl Simulation {
     pub fn restore(&mut self, saved: &str) -> Result<(), String> {
         let saved = serde_json::from_str::<SavedRun>(saved).map_err(|e| e.to_string())?;
         if let (Some(control), Some(saved)) = (self.control.as_mut(), saved.control) {
-            *control = saved;
+            // the case's bounds and rate, the run's progress (Δt, last error, rejections)
+            control.resume_from(&saved);
         }
         if saved.undisturbed.is_some() {
             self.undisturbed = saved.undisturbed;
