@@ -93,6 +93,10 @@ pub enum Command {
         /// `multiplier`, Lagrange multipliers on a ring (`numerics.rigid_condition`).
         #[arg(long, value_enum, default_value_t = RigidConditionArg::Weak)]
         rigid_condition: RigidConditionArg,
+        /// Mesh of the couette-wall-mode study, NθxNr elements (default 240x45, the Couette
+        /// family's; 480x90 is family (iv)'s ε = 2/15).
+        #[arg(long)]
+        elements: Option<String>,
     },
     /// Run a performance benchmark.
     Bench {
@@ -324,5 +328,34 @@ pub(super) fn cut_options(level: u32, interface: InterfaceArg) -> crate::xfem::C
     crate::xfem::CutOptions {
         level,
         interface: crate::simulate::settings::interface_approx(interface.into()),
+    }
+}
+
+/// `NθxNr` (two whole element counts, e.g. `480x90`) as `[Nθ, Nr]`.
+///
+/// # Errors
+/// If the text is not two positive integers joined by `x`.
+pub fn parse_elements(text: &str) -> anyhow::Result<[usize; 2]> {
+    let parsed = text
+        .split_once('x')
+        .and_then(|(a, b)| Some([a.trim().parse().ok()?, b.trim().parse().ok()?]));
+    match parsed {
+        Some([a, b]) if a > 0 && b > 0 => Ok([a, b]),
+        _ => anyhow::bail!(
+            "--elements {text:?}: expected NθxNr, two positive element counts like 480x90"
+        ),
+    }
+}
+
+#[cfg(test)]
+mod tests {
+    use super::parse_elements;
+
+    #[test]
+    fn element_counts_are_two_positive_integers() {
+        assert_eq!(parse_elements("480x90").unwrap(), [480, 90]);
+        for bad in ["480", "480x", "x90", "0x90", "480x-1", "480y90", "4.5x90"] {
+            assert!(parse_elements(bad).is_err(), "{bad}");
+        }
     }
 }

@@ -47,7 +47,11 @@ pub fn run(cli: Cli) -> anyhow::Result<ExitCode> {
             interface,
             method,
             rigid_condition,
+            elements,
         } => match study {
+            _ if elements.is_some() && study != Study::CouetteWallMode => {
+                anyhow::bail!("--elements applies to `xpflow validate couette-wall-mode` only")
+            }
             _ if method != args::MethodArg::Xfem && study != Study::Cylinder => {
                 anyhow::bail!("--method fdm applies to `xpflow validate cylinder` only")
             }
@@ -58,9 +62,11 @@ pub fn run(cli: Cli) -> anyhow::Result<ExitCode> {
                 )
             }
             Study::StokesMms | Study::Couette => validate::validate(study, levels, solver.into()),
-            Study::CouetteWallMode => {
-                validate::couette_wall_mode(if wi == 0.0 { 1.0 } else { wi }, dt.unwrap_or(0.08))
-            }
+            Study::CouetteWallMode => validate::couette_wall_mode(
+                if wi == 0.0 { 1.0 } else { wi },
+                dt.unwrap_or(0.08),
+                elements.as_deref().map(args::parse_elements).transpose()?,
+            ),
             Study::ExtrudateSwell => extrudate::validate_extrudate_swell(
                 &h.unwrap_or_else(|| validate::default_meshes(study, wi)),
                 &de,
