@@ -2,14 +2,16 @@
 //! "The explicit coupling's wall mode"), without a particle: `validate::couette_wall_mode` at
 //! Wi = 1 on the family's 45×240 mesh (also `xpflow validate couette-wall-mode`).
 
-use xpflow::validate::couette_wall_mode::{wall_mode_study, WallModeRun, FIT_FROM, MESH, T_END};
+use xpflow::validate::couette_wall_mode::{
+    wall_mode_study, WallModeRun, FIT_FROM, MESH, STUDY_DT, STUDY_WI, T_END,
+};
 
 /// The explicit coupling at Δt = 0.08 grows the seeded m = 9 wall mode; at Δt = 0.02, or with the
 /// semi-implicit stress at 0.08, it decays.
 #[test]
 #[ignore = "21 min on the shared two-core machine: cargo test --release --test couette_wall_mode -- --ignored --nocapture"]
 fn the_explicit_coupling_grows_the_wall_mode_at_a_large_step() {
-    let (runs, passed) = wall_mode_study(1.0, 0.08, MESH, &mut |coupling, dt, t, a| {
+    let (runs, passed) = wall_mode_study(STUDY_WI, STUDY_DT, MESH, &mut |coupling, dt, t, a| {
         println!("{coupling:?} dt={dt}: t={t:.2} |c9|={a:.3e}");
     })
     .unwrap();

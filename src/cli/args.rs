@@ -200,7 +200,8 @@ pub enum Study {
     /// Newtonian extrudate swell (thesis §6.4, Table 6.3, De = 0): the free surface immersed in
     /// the fixed mesh moved by the kinematic equation to steady state; `swell = <H_max/H0>` per
     /// element size `--h` (default 0.1,0.05,0.025; Δt = 0.05 up to t = 40), the extrapolation
-    /// and the verdict against the published 1.188; the profiles and each run's approach (per step: swell, max|ΔH| and where) as CSV in `--out`.
+    /// and the verdict against the published 1.188; the profiles and each run's approach (per
+    /// step: swell, max|ΔH| and where) as CSV in `--out`.
     ExtrudateSwell,
 }
 
@@ -238,15 +239,15 @@ impl From<SolverArg> for SolverKind {
     }
 }
 
-/// Parses `NXxNY`.
+/// Parses `NXxNY` (a mesh as element counts: `bench --mesh`, `validate --elements`).
 pub(super) fn parse_mesh(s: &str) -> anyhow::Result<(usize, usize)> {
     let (a, b) = s
         .split_once(['x', 'X'])
-        .ok_or_else(|| anyhow::anyhow!("--mesh must look like 200x50, got '{s}'"))?;
+        .ok_or_else(|| anyhow::anyhow!("a mesh must look like 200x50, got '{s}'"))?;
     let (nx, ny) = (a.trim().parse()?, b.trim().parse()?);
     anyhow::ensure!(
         nx > 0 && ny > 0,
-        "--mesh needs positive element counts, got '{s}'"
+        "a mesh needs positive element counts, got '{s}'"
     );
     Ok((nx, ny))
 }
@@ -328,34 +329,5 @@ pub(super) fn cut_options(level: u32, interface: InterfaceArg) -> crate::xfem::C
     crate::xfem::CutOptions {
         level,
         interface: crate::simulate::settings::interface_approx(interface.into()),
-    }
-}
-
-/// `NθxNr` (two whole element counts, e.g. `480x90`) as `[Nθ, Nr]`.
-///
-/// # Errors
-/// If the text is not two positive integers joined by `x`.
-pub fn parse_elements(text: &str) -> anyhow::Result<[usize; 2]> {
-    let parsed = text
-        .split_once('x')
-        .and_then(|(a, b)| Some([a.trim().parse().ok()?, b.trim().parse().ok()?]));
-    match parsed {
-        Some([a, b]) if a > 0 && b > 0 => Ok([a, b]),
-        _ => anyhow::bail!(
-            "--elements {text:?}: expected NθxNr, two positive element counts like 480x90"
-        ),
-    }
-}
-
-#[cfg(test)]
-mod tests {
-    use super::parse_elements;
-
-    #[test]
-    fn element_counts_are_two_positive_integers() {
-        assert_eq!(parse_elements("480x90").unwrap(), [480, 90]);
-        for bad in ["480", "480x", "x90", "0x90", "480x-1", "480y90", "4.5x90"] {
-            assert!(parse_elements(bad).is_err(), "{bad}");
-        }
     }
 }

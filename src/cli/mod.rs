@@ -62,11 +62,19 @@ pub fn run(cli: Cli) -> anyhow::Result<ExitCode> {
                 )
             }
             Study::StokesMms | Study::Couette => validate::validate(study, levels, solver.into()),
-            Study::CouetteWallMode => validate::couette_wall_mode(
-                if wi == 0.0 { 1.0 } else { wi },
-                dt.unwrap_or(0.08),
-                elements.as_deref().map(args::parse_elements).transpose()?,
-            ),
+            Study::CouetteWallMode => {
+                use crate::validate::couette_wall_mode::{STUDY_DT, STUDY_WI};
+                let mesh = elements
+                    .as_deref()
+                    .map(args::parse_mesh)
+                    .transpose()?
+                    .map(|(n_theta, n_r)| [n_theta, n_r]);
+                validate::couette_wall_mode(
+                    if wi == 0.0 { STUDY_WI } else { wi },
+                    dt.unwrap_or(STUDY_DT),
+                    mesh,
+                )
+            }
             Study::ExtrudateSwell => extrudate::validate_extrudate_swell(
                 &h.unwrap_or_else(|| validate::default_meshes(study, wi)),
                 &de,

@@ -19,6 +19,11 @@ pub const ALPHA: f64 = 0.01;
 /// The family's mesh: θ × r elements (the study's default; family (iv)'s ε = 2/15 runs on
 /// 480 × 90).
 pub const MESH: [usize; 2] = [240, 45];
+/// The study's own Weissenberg number and step (with [`MESH`]: the set-up its verdict is for, the
+/// one the Couette family's explicit runs broke down at).
+pub const STUDY_WI: f64 = 1.0;
+/// See [`STUDY_WI`].
+pub const STUDY_DT: f64 = 0.08;
 /// The seeded azimuthal wavenumber (the one the particle's run grew).
 pub const WAVENUMBER: f64 = 9.0;
 /// Start of the fit: the base flow has developed (≈ 7λ at Wi = 1).

@@ -179,8 +179,8 @@ pub struct SwellSample {
 }
 
 impl SwellSample {
-    /// The sample of a step that took the surface from `before` to `after` (heights on the same
-    /// `nodes`).
+    /// The sample of a step that took the surface from the heights `before` to `after` on
+    /// `nodes`.
     fn between(t: f64, nodes: &[f64], before: &[f64], after: &[f64]) -> Self {
         let (i, d) = before
             .iter()
@@ -246,14 +246,14 @@ pub fn swell(grid: SwellMesh, de: f64, dt: f64, t_max: f64) -> Result<SwellRun, 
     let mut sim = Simulation::new(&case)?;
     let mut change = f64::INFINITY;
     let mut history = Vec::new();
-    let heights = |sim: &Simulation| {
-        sim.stepper()
-            .surface()
-            .expect("an extrusion case has a free surface")
-            .heights()
-            .to_vec()
-    };
-    let mut before = heights(&sim);
+    let no_surface = "an extrusion case has a free surface";
+    // Hⁿ, overwritten after each step (no allocation per step)
+    let mut before = sim
+        .stepper()
+        .surface()
+        .expect(no_surface)
+        .heights()
+        .to_vec();
     while change >= STEADY_HEIGHT_TOL && !sim.at_end() {
         let step = sim.steps();
         let failed = |source| SwellError::Step { step, source };
@@ -265,10 +265,14 @@ pub fn swell(grid: SwellMesh, de: f64, dt: f64, t_max: f64) -> Result<SwellRun, 
             }
         }
         change = sim.stepper().surface_change().unwrap_or(f64::INFINITY);
-        let after = heights(&sim);
-        let nodes = sim.stepper().surface().expect("a surface").nodes();
-        history.push(SwellSample::between(sim.time(), nodes, &before, &after));
-        before = after;
+        let after = sim.stepper().surface().expect(no_surface);
+        history.push(SwellSample::between(
+            sim.time(),
+            after.nodes(),
+            &before,
+            after.heights(),
+        ));
+        before.copy_from_slice(after.heights());
     }
     let flow = sim.stepper().flow();
     let mesh = flow.mesh();
