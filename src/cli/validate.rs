@@ -394,10 +394,10 @@ pub(super) fn default_meshes(study: Study, wi: f64) -> Vec<f64> {
 fn near_contact(hs: &[f64], cut: crate::xfem::CutOptions) -> anyhow::Result<bool> {
     use crate::validate::near_contact::{check, contact_force, FilmMesh, Pair};
     const GAPS: [f64; 6] = [0.5, 0.2, 0.1, 0.05, 0.02, 0.01];
-    let header = "| h across/a | h along/a | gap/a | gap/h | offset | F | F_lub | F/F_lub |\n|---|---|---|---|---|---|---|---|";
+    let header = "| h across/a | h along/a | gap/a | gap/h | offset | F | F_lub | F/F_lub | corrected F/F_lub |\n|---|---|---|---|---|---|---|---|---|";
     let row = |f: &crate::validate::near_contact::ContactForce| {
         println!(
-            "| {} | {} | {} | {:.2} | {} | {:.4e} | {:.4e} | {:.4} |",
+            "| {} | {} | {} | {:.2} | {} | {:.4e} | {:.4e} | {:.4} | {:.4} |",
             f.mesh.across,
             f.mesh.along,
             f.gap,
@@ -405,7 +405,8 @@ fn near_contact(hs: &[f64], cut: crate::xfem::CutOptions) -> anyhow::Result<bool
             f.offset,
             f.force,
             f.asymptote,
-            f.ratio()
+            f.ratio(),
+            f.corrected_ratio()
         )
     };
     let mut failures = Vec::new();

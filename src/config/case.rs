@@ -268,6 +268,13 @@ pub struct Numerics {
     /// the mesh, computed per case. Not in the case id when `lab`.
     #[serde(default, skip_serializing_if = "FrameChoice::is_lab")]
     pub frame: FrameChoice,
+    /// The squeeze force of the films the mesh does not resolve (fewer than one element across a
+    /// gap between two particles, or a particle and a confined-shear channel's wall), added as a
+    /// resistance between their rigid-body unknowns with the fluid's zero-shear viscosity
+    /// ([`crate::solver::lubrication`]: the fraction the mesh misses, measured by `xpflow validate
+    /// near-contact`). Default off; not in the case id when off.
+    #[serde(default, skip_serializing_if = "is_false")]
+    pub lubrication: bool,
 }
 
 /// A mesh that follows the particles (see [`Numerics::follow`]); lengths in particle radii.
@@ -373,6 +380,10 @@ impl FrameChoice {
 
 fn is_zero(v: &f64) -> bool {
     *v == 0.0
+}
+
+fn is_false(b: &bool) -> bool {
+    !*b
 }
 
 /// How the polymer stress enters the flow solve of a time step (docs/validation.md, "Time order of

@@ -535,3 +535,22 @@ fn the_method_is_xfem_unless_named_and_fdm_refuses_a_cut_rule() {
     assert_eq!(err.field, "numerics.method");
     assert!(err.message.contains("fdm"), "{}", err.message);
 }
+
+#[test]
+fn lubrication_is_off_unless_asked_for_and_only_then_in_the_case_id() {
+    let canonical = |v: Value| serde_json::to_value(CaseSpec::from_value(v).unwrap()).unwrap();
+    let plain = canonical(shear());
+    assert!(plain["numerics"].get("lubrication").is_none());
+    let mut off = shear();
+    off["numerics"]["lubrication"] = json!(false);
+    assert_eq!(canonical(off), plain);
+    let mut on = shear();
+    on["numerics"]["lubrication"] = json!(true);
+    let with = canonical(on.clone());
+    assert!(with["numerics"]["lubrication"] == json!(true) && with != plain);
+    // the resolved fluid: η0 and the channel's walls
+    let case = CaseSpec::from_value(on).unwrap();
+    let lub = crate::simulate::settings::lubrication(&case).expect("on");
+    let eta0 = case.solvent_viscosity() + case.polymer_viscosity();
+    assert!(lub.walls && (lub.viscosity - eta0).abs() < 1e-15);
+}

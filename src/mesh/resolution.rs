@@ -56,56 +56,103 @@ pub fn elements_between(mesh: &Mesh, p: [f64; 2], q: [f64; 2]) -> f64 {
     dx.abs() + (sq[1] - sp[1]).abs()
 }
 
-/// The narrowest gap between the particles of radius `radius` at `centres` (periodic images on a
-/// periodic mesh: the short way round) and between each particle and the walls (the bottom and
-/// top sides of the mesh). `None` without particles.
-pub fn narrowest_gap(mesh: &Mesh, centres: &[[f64; 2]], radius: f64) -> Option<NarrowestGap> {
+/// One gap of a configuration: between two particles or a particle and a wall.
+#[derive(Debug, Clone, Copy, PartialEq)]
+pub struct Gap {
+    /// Elements across the gap (0 for touching or overlapping surfaces).
+    pub elements: f64,
+    /// The gap itself (surface to surface; ≤ 0 for touching or overlapping surfaces).
+    pub gap: f64,
+    /// Where it is.
+    pub between: Between,
+    /// Unit vector across the gap, from the (first) particle's centre towards the other particle
+    /// or the wall (Cartesian, also on an annulus).
+    pub normal: [f64; 2],
+}
+
+/// Every gap of the particles of radii `radii` at `centres`: each pair (periodic images on a
+/// periodic mesh: the short way round) and each particle with the walls on the mesh's bottom and
+/// top sides (y₀ and y₁, or R₁ and R₂ on an annulus).
+pub fn gaps(mesh: &Mesh, centres: &[[f64; 2]], radii: &[f64]) -> Vec<Gap> {
+    debug_assert_eq!(centres.len(), radii.len());
     let (n_x, n_y) = mesh.dims();
     let period = match (mesh.periodic, mesh.shape) {
         (true, Shape::Rectangle) => Some(mesh.ax.vertices[n_x] - mesh.ax.vertices[0]),
         _ => None,
     };
-    let mut best: Option<NarrowestGap> = None;
-    let mut consider = |elements: f64, gap: f64, between| {
-        if best.is_none_or(|b| elements < b.elements) {
-            best = Some(NarrowestGap {
-                elements,
-                gap,
-                between,
-            });
-        }
-    };
-    for (i, &c) in centres.iter().enumerate() {
-        for (j, &d) in centres.iter().enumerate().skip(i + 1) {
+    let mut all = Vec::with_capacity(centres.len() * (centres.len() + 3) / 2);
+    for (i, (&c, &a)) in centres.iter().zip(radii).enumerate() {
+        for (j, (&d, &b)) in centres.iter().zip(radii).enumerate().skip(i + 1) {
             let mut dx = d[0] - c[0];
             if let Some(l) = period {
                 dx -= l * (dx / l).round();
             }
             let dist = dx.hypot(d[1] - c[1]);
-            let gap = dist - 2.0 * radius;
+            let normal = if dist > 0.0 {
+                [dx / dist, (d[1] - c[1]) / dist]
+            } else {
+                [1.0, 0.0]
+            };
+            let gap = dist - a - b;
             let elements = if gap > 0.0 {
-                let n = [dx / dist, (d[1] - c[1]) / dist];
-                let p = [c[0] + radius * n[0], c[1] + radius * n[1]];
-                let q = [c[0] + (dist - radius) * n[0], c[1] + (dist - radius) * n[1]];
+                let p = [c[0] + a * normal[0], c[1] + a * normal[1]];
+                let q = [c[0] + (dist - b) * normal[0], c[1] + (dist - b) * normal[1]];
                 elements_between(mesh, p, q)
             } else {
                 0.0
             };
-            consider(elements, gap, Between::Particles(i, j));
+            all.push(Gap {
+                elements,
+                gap,
+                between: Between::Particles(i, j),
+                normal,
+            });
         }
         // the walls: the closest point of the particle to each side, in the axes' coordinates
         let [_, r] = mesh.axis_coordinates(c);
         let (lo, hi) = (mesh.ay.vertices[0], mesh.ay.vertices[n_y]);
-        let s_near = mesh.ay.index_coordinate(r - radius);
-        let s_far = mesh.ay.index_coordinate(r + radius);
-        consider(s_near.max(0.0), r - radius - lo, Between::BottomWall(i));
-        consider(
-            (n_y as f64 - s_far).max(0.0),
-            hi - r - radius,
-            Between::TopWall(i),
-        );
+        let s_near = mesh.ay.index_coordinate(r - a);
+        let s_far = mesh.ay.index_coordinate(r + a);
+        // outwards: +y on a rectangle, radial on an annulus
+        let out = match mesh.shape {
+            Shape::Rectangle => [0.0, 1.0],
+            _ => {
+                let rc = c[0].hypot(c[1]);
+                [c[0] / rc, c[1] / rc]
+            }
+        };
+        all.push(Gap {
+            elements: s_near.max(0.0),
+            gap: r - a - lo,
+            between: Between::BottomWall(i),
+            normal: [-out[0], -out[1]],
+        });
+        all.push(Gap {
+            elements: (n_y as f64 - s_far).max(0.0),
+            gap: hi - r - a,
+            between: Between::TopWall(i),
+            normal: out,
+        });
     }
-    best
+    all
+}
+
+/// The narrowest gap between the particles of radius `radius` at `centres` and between each
+/// particle and the walls, in elements ([`gaps`]). `None` without particles.
+pub fn narrowest_gap(mesh: &Mesh, centres: &[[f64; 2]], radius: f64) -> Option<NarrowestGap> {
+    let radii = vec![radius; centres.len()];
+    gaps(mesh, centres, &radii)
+        .into_iter()
+        // the first of equals, in the order pairs then walls per particle
+        .fold(None, |best: Option<Gap>, g| match best {
+            Some(b) if b.elements <= g.elements => Some(b),
+            _ => Some(g),
+        })
+        .map(|g| NarrowestGap {
+            elements: g.elements,
+            gap: g.gap,
+            between: g.between,
+        })
 }
 
 #[cfg(test)]

@@ -19,6 +19,7 @@ use crate::solver::constitutive_stress::Coupling;
 use crate::solver::cutcells::Discretization;
 use crate::solver::flow::FLOW_GHOST_PENALTY;
 use crate::solver::free_surface::SURFACE_STRESS_GHOST_PENALTY;
+use crate::solver::lubrication::{Lubrication, PAIR_FILM_FIT, RESOLVED_ELEMENTS, WALL_FILM_FIT};
 use crate::solver::moving::step_count;
 use crate::solver::multiplier::{RigidCondition, MIN_RING_NODES, RING_SPACING};
 use crate::solver::rigid::FICTITIOUS_DOMAIN_PENALTY;
@@ -139,6 +140,9 @@ pub struct FlowSettings {
     pub stress_ghost_penalty: f64,
     /// Ghost penalty of the Q1 projections.
     pub projection_ghost_penalty: f64,
+    /// The lubrication correction of unresolved films (`numerics.lubrication`), if on.
+    #[serde(skip_serializing_if = "Option::is_none")]
+    pub lubrication: Option<String>,
 }
 
 /// The cut-cell quadrature.
@@ -205,11 +209,13 @@ pub fn fluid_params(case: &CaseSpec) -> ViscoelasticParams {
         let mut params = ViscoelasticParams::newtonian(eta_s + eta_p, dt, t_end);
         params.factorization = factorization(case);
         params.rigid_condition = case.numerics.rigid_condition;
+        params.lubrication = lubrication(case);
         return params;
     }
     let mut params = ViscoelasticParams::new(eta_s, eta_p, lambda, case.fluid.alpha, dt, t_end);
     params.factorization = factorization(case);
     params.rigid_condition = case.numerics.rigid_condition;
+    params.lubrication = lubrication(case);
     if case.extrusion().is_some() {
         params.stress_ghost_penalty = SURFACE_STRESS_GHOST_PENALTY;
     }
@@ -233,6 +239,16 @@ pub fn fluid_params(case: &CaseSpec) -> ViscoelasticParams {
         StressCoupling::SemiImplicit => params.coupling = Coupling::SemiImplicit,
     }
     params
+}
+
+/// The lubrication correction of a case with `numerics.lubrication`: the zero-shear viscosity
+/// η_s + η_p, and the walls of a confined-shear channel (the other geometries' walls are curved
+/// or not walls: none).
+pub fn lubrication(case: &CaseSpec) -> Option<Lubrication> {
+    case.numerics.lubrication.then(|| Lubrication {
+        viscosity: case.solvent_viscosity() + case.polymer_viscosity(),
+        walls: matches!(case.geometry, Geometry::ConfinedShear { .. }),
+    })
 }
 
 /// How a case's changed flow matrix is factored: `numerics.factorization`, except with a free
@@ -341,6 +357,20 @@ impl Settings {
                 ghost_penalty: ghost(FLOW_GHOST_PENALTY),
                 stress_ghost_penalty: ghost(params.stress_ghost_penalty),
                 projection_ghost_penalty: ghost(PROJECTION_GHOST_PENALTY),
+                lubrication: lubrication(case).map(|l| {
+                    format!(
+                        "squeeze resistance of films under {RESOLVED_ELEMENTS} element across, \
+                         fraction missed c/(x^2 + c) - c/(1 + c), c = {PAIR_FILM_FIT} between \
+                         particles and {WALL_FILM_FIT} at walls, viscosity {}, \
+                         {}",
+                        l.viscosity,
+                        if l.walls {
+                            "between particles and with the channel walls"
+                        } else {
+                            "between particles"
+                        }
+                    )
+                }),
             },
             cut: xfem.then_some(CutSettings {
                 interface: match cut.interface {

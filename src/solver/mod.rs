@@ -10,6 +10,7 @@ pub mod flow;
 pub mod free_surface;
 pub mod ghost;
 pub mod log_conformation_history;
+pub mod lubrication;
 pub mod moving;
 pub mod multiplier;
 pub mod norms;

@@ -13,6 +13,7 @@ use super::Stokes;
 use crate::fem::element::{physical_gradients, q1, q2, q2_map};
 use crate::mesh::Shape;
 use crate::solver::ghost::{ghost_faces, ghost_patch_matrices, FaceSide, GhostFace};
+use crate::solver::lubrication::films;
 use crate::solver::multiplier::RigidCondition;
 use crate::solver::polymer_terms::{boundary_terms, volume_terms, PolymerStress};
 use crate::solver::rigid::{jump_vectors, weak_rigid_kernel, CutElement, ElementCut};
@@ -200,9 +201,46 @@ impl Stokes {
         if self.params.ghost_penalty > 0.0 {
             self.assemble_ghost_penalty();
         }
+        self.assemble_lubrication();
         self.matrix
             .eliminate_constraints(&mut self.rhs, &self.fixed);
         self.matrix.apply_constraints(&mut self.rhs, &self.fixed);
+    }
+
+    /// Adds the resistance R n nᵀ of each film the mesh does not resolve to the translational
+    /// rows of its particles (−R n nᵀ between them; [`crate::solver::lubrication`]).
+    fn assemble_lubrication(&mut self) {
+        let Some(lubrication) = self.params.lubrication else {
+            return;
+        };
+        let lay = self.layout;
+        for film in films(&self.mesh, &self.particles, &lubrication) {
+            let [nx, ny] = film.normal;
+            let r = film.resistance;
+            let block = [r * nx * nx, r * nx * ny, r * ny * nx, r * ny * ny];
+            let first = [lay.rigid(film.first, 0), lay.rigid(film.first, 1)];
+            match film.second {
+                None => self.matrix.scatter(
+                    &first,
+                    &block,
+                    &[0.0; 2],
+                    &mut self.rhs,
+                    &self.unconstrained,
+                ),
+                Some(j) => {
+                    let dofs = [first[0], first[1], lay.rigid(j, 0), lay.rigid(j, 1)];
+                    let mut k = [0.0; 16];
+                    for a in 0..4 {
+                        for b in 0..4 {
+                            let sign = if (a < 2) == (b < 2) { 1.0 } else { -1.0 };
+                            k[4 * a + b] = sign * block[2 * (a % 2) + b % 2];
+                        }
+                    }
+                    self.matrix
+                        .scatter(&dofs, &k, &[0.0; 4], &mut self.rhs, &self.unconstrained);
+                }
+            }
+        }
     }
 
     /// Adds the patch ghost penalty of velocity and pressure on the faces of cut elements.

@@ -6,6 +6,7 @@
 use super::dofs::{element_dofs, MAX_EL_DOFS};
 use super::Stokes;
 use crate::fem::element::{physical_gradients, q1, q2, q2_map};
+use crate::solver::lubrication::films;
 use crate::solver::multiplier::RigidCondition;
 use crate::solver::rigid::{weak_rigid_kernel, CutElement, ElementCut};
 
@@ -92,6 +93,21 @@ impl Stokes {
                     stress[i][0] += bp.w * t[0];
                     stress[i][1] += bp.w * t[1];
                     stress[i][2] += bp.w * (r[0] * t[1] - r[1] * t[0]);
+                }
+            }
+        }
+        // the films' correction acts on the rigid rows too: part of the condition's force
+        if let Some(lubrication) = self.params.lubrication {
+            let rigid: Vec<[f64; 3]> = (0..np)
+                .map(|i| [0, 1, 2].map(|c| self.sol[lay.rigid(i, c)]))
+                .collect();
+            for film in films(&self.mesh, &self.particles, &lubrication) {
+                let f = film.force_on_first(&rigid);
+                for c in 0..2 {
+                    reaction[film.first][c] += f[c];
+                    if let Some(j) = film.second {
+                        reaction[j][c] -= f[c];
+                    }
                 }
             }
         }

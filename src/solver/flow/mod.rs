@@ -51,6 +51,7 @@ use crate::fem::quadrature::{gauss_quad, QuadRule};
 use crate::fem::sparse::SparseMatrix;
 use crate::fem::substructure::Substructured;
 use crate::mesh::Mesh;
+use crate::solver::lubrication::Lubrication;
 use crate::solver::multiplier::{RigidCondition, Ring};
 use crate::solver::polymer_terms::PolymerStress;
 use crate::solver::rigid::{ElementCut, Particle, WeakForm};
@@ -80,6 +81,9 @@ pub struct StokesParams {
     pub ghost_penalty: f64,
     /// How a changed matrix is factored (LBLᵀ only; LU always factors the whole matrix).
     pub factorization: FlowFactorization,
+    /// The squeeze resistance of the films the mesh does not resolve, added between the
+    /// particles' rigid rows ([`crate::solver::lubrication`]); `None` = none (the default).
+    pub lubrication: Option<Lubrication>,
 }
 
 impl StokesParams {
@@ -96,6 +100,7 @@ impl StokesParams {
             coupled_g: true,
             ghost_penalty: FLOW_GHOST_PENALTY,
             factorization: FlowFactorization::Band,
+            lubrication: None,
         }
     }
 }
@@ -280,7 +285,7 @@ impl Stokes {
         };
         let reach = reach_for(&mesh, &particles, &cuts);
         let links = ring_links(&rings, &cuts);
-        let matrix = build_pattern(&mesh, &layout, &reach, &links);
+        let matrix = build_pattern(&mesh, &layout, &reach, &links, params.lubrication.is_some());
         let n = layout.n_dofs();
         let n_elements = mesh.n_elements();
         let mut st = Self {
@@ -344,7 +349,13 @@ impl Stokes {
         if !self.reach.covers(&self.cuts) || !links_cover(&self.links, &links) {
             self.reach = reach_for(&self.mesh, &self.particles, &self.cuts);
             self.links = links;
-            self.matrix = build_pattern(&self.mesh, &self.layout, &self.reach, &self.links);
+            self.matrix = build_pattern(
+                &self.mesh,
+                &self.layout,
+                &self.reach,
+                &self.links,
+                self.params.lubrication.is_some(),
+            );
             self.positions.clear();
             self.face_positions.clear();
             self.solver = None;

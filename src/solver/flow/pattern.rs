@@ -109,12 +109,16 @@ pub(super) fn reach_for(mesh: &Mesh, particles: &[Particle], cuts: &[ElementCut]
 /// The sparsity pattern of the flow matrix: every element (also those inside particles, which
 /// store zeros next to identity rows, so that a particle crossing the mesh does not change the
 /// pattern), the rigid-body couplings of the elements in each particle's reach and the
-/// multiplier couplings `links` (none with the weak rigid-body condition).
+/// multiplier couplings `links` (none with the weak rigid-body condition) and, with a lubrication
+/// correction (`lubricated`), every particle's translation with every other's (the films'
+/// resistances, [`crate::solver::lubrication`]: a dense 2N × 2N block, so that a film that forms
+/// does not change the pattern).
 pub(super) fn build_pattern(
     mesh: &Mesh,
     layout: &Layout,
     reach: &Reach,
     links: &[RingLink],
+    lubricated: bool,
 ) -> SparseMatrix {
     let mut pb = PatternBuilder::new(layout.n_dofs());
     let mut dofs = Vec::with_capacity(MAX_EL_DOFS);
@@ -168,6 +172,12 @@ pub(super) fn build_pattern(
     // a particle's three rigid unknowns couple with each other even outside any cut
     for i in 0..layout.n_particles {
         pb.add_group(&[layout.rigid(i, 0), layout.rigid(i, 1), layout.rigid(i, 2)]);
+    }
+    if lubricated && layout.n_particles > 1 {
+        let translations: Vec<usize> = (0..layout.n_particles)
+            .flat_map(|i| [layout.rigid(i, 0), layout.rigid(i, 1)])
+            .collect();
+        pb.add_group(&translations);
     }
     // a ring node's multipliers with the velocity of the elements its arcs cross, the rigid
     // unknowns and (zero) each other

@@ -137,6 +137,7 @@ impl ViscoelasticFlow {
         sp.rigid_condition = params.rigid_condition;
         sp.coupled_g = params.coupled_g;
         sp.factorization = params.factorization;
+        sp.lubrication = params.lubrication;
         let (nv, nn) = (mesh.n_vertices(), mesh.n_nodes());
         let n_particles = particles.len();
         let mut transport = LogConformationTransport::new(&mesh);

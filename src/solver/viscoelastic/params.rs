@@ -53,6 +53,9 @@ pub struct ViscoelasticParams {
     /// Ghost-penalty factor of the stress transport on the faces of cut elements (default
     /// [`GHOST_PENALTY`](crate::solver::constitutive::GHOST_PENALTY)).
     pub stress_ghost_penalty: f64,
+    /// The squeeze resistance of the films the mesh does not resolve, in the flow solve
+    /// ([`crate::solver::lubrication`]); default none.
+    pub lubrication: Option<crate::solver::lubrication::Lubrication>,
 }
 
 impl ViscoelasticParams {
@@ -94,6 +97,7 @@ impl ViscoelasticParams {
             factorization: Factorization::Band,
             supg: SupgVelocity::Local,
             stress_ghost_penalty: crate::solver::constitutive::GHOST_PENALTY,
+            lubrication: None,
         }
     }
 
