@@ -274,7 +274,7 @@ pub fn check(pair: Pair, rows: &[ContactForce]) -> Vec<String> {
             }
         }
     }
-    for r in &rows[..] {
+    for r in rows {
         let resolved = r.elements() >= RESOLVED_ELEMENTS;
         if resolved && r.corrected != r.force {
             failures.push(format!(
