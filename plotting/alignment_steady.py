@@ -21,7 +21,7 @@ import figlib as fl
 
 NAME = "alignment_steady_omega"
 TITLE = "Steady angular velocity of the particles of a string and their gap, by string length"
-KEYS = ["model", "wi", "alpha", "beta", "h", "a", "l", "mesh", "dt", "settings"]
+KEYS = ["model", "wi", "alpha", "beta", "h", "a", "l", "mesh", "step", "settings"]
 ROWS_PER_PAGE = 4
 #: Smallest y range of a panel (ω* and d* are O(0.1–1); smaller differences are not resolved by a solver).
 MIN_SPAN = 0.05

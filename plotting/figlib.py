@@ -100,7 +100,7 @@ def fmt(v) -> str:
 #: Display names of parameters in titles and legends.
 SYMBOL = {
     "wi": "Wi", "alpha": "α", "beta": "β", "delta": "δ", "n": "N", "a": "a", "h": "H", "l": "L",
-    "lx": "l_x", "ly": "l_y", "r0": "r0*", "eps": "ε", "ratio": "R2/R1", "mesh": "mesh", "dt": "Δt",
+    "lx": "l_x", "ly": "l_y", "r0": "r0*", "eps": "ε", "ratio": "R2/R1", "mesh": "mesh", "dt": "Δt", "step": "Δt",
     "model": "model", "string_length": "N",
 }
 
@@ -175,6 +175,15 @@ class Case:
         parts = [f"{k} {self.frame_text() if k == 'frame_velocity' else fmt(v)}" for k, v in sorted(n.items())
                  if k not in skip and not (k == "grading" and v == 1)]
         return ", ".join(parts) or None
+
+    @property
+    def step(self):
+        """The time step as titles give it: Δt of a fixed step, 'max M (adaptive)' for an
+        error-controlled one (whose `dt` column holds only its initial step)."""
+        dt = self.params.get("numerics", {}).get("dt")
+        if isinstance(dt, dict):
+            return f"max {fmt(dt.get('max'))} (adaptive)"
+        return self.dt
 
     def frame_text(self) -> str:
         """numerics.frame_velocity as text: 'of the fluid at the start' when it is the undisturbed shear
@@ -541,7 +550,7 @@ def kind_text(c: Case) -> str:
 
 
 #: Parameters that define a confined-shear set-up apart from the initial positions (panel keys).
-SHEAR_KEYS = ["model", "wi", "alpha", "beta", "h", "a", "l", "n", "mesh", "dt", "settings"]
+SHEAR_KEYS = ["model", "wi", "alpha", "beta", "h", "a", "l", "n", "mesh", "step", "settings"]
 
 
 def shear_groups(cases, keys=SHEAR_KEYS):

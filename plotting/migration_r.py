@@ -17,7 +17,7 @@ import numpy as np
 import figlib as fl
 
 #: Parameters that define a Couette case (panel keys).
-KEYS = ["ratio", "beta", "wi", "alpha", "eps", "r0", "mesh", "dt", "settings"]
+KEYS = ["ratio", "beta", "wi", "alpha", "eps", "r0", "mesh", "step", "settings"]
 #: Caption of the shading, in every suptitle.
 SHADING = "grey: unreachable, r* < a/(R2 − R1) or r* > 1 − a/(R2 − R1)"
 #: Family parameter → (file suffix, words for titles).
