@@ -4,10 +4,11 @@
 //! alone lets them approach more than twice as fast — and a resolved film is left alone.
 
 use xpflow::fem::linsolve::SolverKind;
+use xpflow::mesh::resolution::narrowest_gap;
 use xpflow::mesh::{Axis, Mesh, Side};
 use xpflow::solver::cutcells::compute_cuts;
 use xpflow::solver::flow::{Stokes, StokesParams};
-use xpflow::solver::lubrication::Lubrication;
+use xpflow::solver::lubrication::{Lubrication, RESOLVED_ELEMENTS};
 use xpflow::solver::rigid::{Motion, Particle};
 use xpflow::xfem::CutOptions;
 
@@ -42,6 +43,8 @@ fn approach_speed(ax: Axis, ay: Axis, lubrication: Option<Lubrication>) -> f64 {
     };
     let particles = vec![free([-c, 0.0]), free([c, 0.0])];
     let cuts = compute_cuts(&mesh, &particles, None, CutOptions::default()).expect("cuts");
+    let film = narrowest_gap(&mesh, &[particles[0].center, particles[1].center], A);
+    let unresolved = film.expect("two particles").elements < RESOLVED_ELEMENTS;
     let mut params = StokesParams::new(1.0, 0.0, SolverKind::Lblt);
     params.lubrication = lubrication;
     let mut st = Stokes::with_particles(mesh, params, particles, cuts);
@@ -50,6 +53,11 @@ fn approach_speed(ax: Axis, ay: Axis, lubrication: Option<Lubrication>) -> f64 {
     }
     st.pin_pressure();
     let sol = st.solve(&|_| [0.0, 0.0]).expect("solves");
+    // the solve counts as corrected exactly when its film is under one element across
+    assert_eq!(
+        st.stats.lubricated_solves,
+        usize::from(lubrication.is_some() && unresolved)
+    );
     sol.rigid[0][0] - sol.rigid[1][0]
 }
 

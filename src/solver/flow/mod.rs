@@ -139,6 +139,14 @@ pub struct FlowSolverStats {
     /// Placements of the band solver ([`FlowFactorization::Band`]: far-field factorizations,
     /// each about a whole factorization and a condensation onto the band's interface).
     pub placements: usize,
+    /// Solves with at least one film corrected by [`StokesParams::lubrication`] (left out of
+    /// the serialized form when none).
+    #[serde(skip_serializing_if = "is_zero")]
+    pub lubricated_solves: usize,
+}
+
+fn is_zero(n: &usize) -> bool {
+    *n == 0
 }
 
 /// A Stokes solution in nodal form.
