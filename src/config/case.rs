@@ -2,7 +2,7 @@
 //! output, stop rules). Construct with [`CaseSpec::from_value`], which resolves shorthands and validates.
 
 use super::method::Method;
-use super::time_step::TimeStep;
+use super::time_step::{is_false, TimeStep};
 use crate::fem::substructure::Factorization;
 use crate::solver::multiplier::RigidCondition;
 use serde::{Deserialize, Serialize};
@@ -380,10 +380,6 @@ impl FrameChoice {
 
 fn is_zero(v: &f64) -> bool {
     *v == 0.0
-}
-
-fn is_false(b: &bool) -> bool {
-    !*b
 }
 
 /// How the polymer stress enters the flow solve of a time step (docs/validation.md, "Time order of

@@ -41,7 +41,8 @@ pub struct AdaptiveStep {
     pub coupling_lag: bool,
 }
 
-fn is_false(b: &bool) -> bool {
+/// Serde's `skip_serializing_if` for flags that are off by default (not in the case id).
+pub(super) fn is_false(b: &bool) -> bool {
     !*b
 }
 

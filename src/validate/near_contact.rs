@@ -31,7 +31,7 @@ use crate::mesh::resolution::{gaps, Between};
 use crate::mesh::{Axis, Mesh, Side};
 use crate::solver::cutcells::compute_cuts;
 use crate::solver::flow::{Stokes, StokesParams};
-use crate::solver::lubrication::{films, Lubrication};
+use crate::solver::lubrication::Lubrication;
 use crate::solver::rigid::{Motion, Particle};
 use crate::xfem::CutOptions;
 
@@ -177,16 +177,6 @@ pub fn contact_force(
         viscosity: 1.0,
         walls: true,
     };
-    // the correction's own share of the reaction: the motion is prescribed, so the flow is the
-    // mesh's with or without it
-    let rigid: Vec<[f64; 3]> = particles
-        .iter()
-        .map(|p| match p.motion {
-            Motion::Prescribed { u, omega } => [u[0], u[1], omega],
-            Motion::Free => [0.0; 3],
-        })
-        .collect();
-    let films = films(&grid, &particles, &lubrication);
     let centres: Vec<[f64; 2]> = particles.iter().map(|p| p.center).collect();
     let elements = gaps(&grid, &centres, &vec![a; centres.len()])
         .into_iter()
@@ -195,12 +185,6 @@ pub fn contact_force(
             Pair::Wall => g.between == Between::BottomWall(0),
         })
         .map_or(0.0, |g| g.elements);
-    let correction = films.iter().fold([0.0; 2], |f, film| {
-        let g = film.force_on_first(&rigid);
-        // the films' force on particle 0 (the first of each film here)
-        debug_assert_eq!(film.first, 0);
-        [f[0] + g[0], f[1] + g[1]]
-    });
     let mut params = StokesParams::new(1.0, 0.0, SolverKind::Lblt);
     params.lubrication = Some(lubrication);
     let mut st = Stokes::with_particles(grid, params, particles, cuts);
@@ -216,6 +200,13 @@ pub fn contact_force(
         Pair::Wall => f[1],
     };
     let corrected = along_motion([sol.reaction[0][0], sol.reaction[0][1]]);
+    // the correction's own share of the reaction (particle 0 is the first of each film here):
+    // the motion is prescribed, so the flow is the mesh's with or without it
+    let correction = st.films().iter().fold([0.0; 2], |f, film| {
+        debug_assert_eq!(film.first, 0);
+        let g = film.force_on_first(&sol.rigid);
+        [f[0] + g[0], f[1] + g[1]]
+    });
     Ok(ContactForce {
         gap,
         mesh,

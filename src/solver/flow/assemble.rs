@@ -214,11 +214,11 @@ impl Stokes {
             return;
         };
         let lay = self.layout;
-        let films = films(&self.mesh, &self.particles, &lubrication);
-        if !films.is_empty() {
+        self.films = films(&self.mesh, &self.particles, &lubrication);
+        if !self.films.is_empty() {
             self.stats.lubricated_solves += 1;
         }
-        for film in films {
+        for film in &self.films {
             let [nx, ny] = film.normal;
             let r = film.resistance;
             let block = [r * nx * nx, r * nx * ny, r * ny * nx, r * ny * ny];

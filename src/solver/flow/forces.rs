@@ -6,7 +6,6 @@
 use super::dofs::{element_dofs, MAX_EL_DOFS};
 use super::Stokes;
 use crate::fem::element::{physical_gradients, q1, q2, q2_map};
-use crate::solver::lubrication::films;
 use crate::solver::multiplier::RigidCondition;
 use crate::solver::rigid::{weak_rigid_kernel, CutElement, ElementCut};
 
@@ -97,11 +96,11 @@ impl Stokes {
             }
         }
         // the films' correction acts on the rigid rows too: part of the condition's force
-        if let Some(lubrication) = self.params.lubrication {
+        if !self.films.is_empty() {
             let rigid: Vec<[f64; 3]> = (0..np)
                 .map(|i| [0, 1, 2].map(|c| self.sol[lay.rigid(i, c)]))
                 .collect();
-            for film in films(&self.mesh, &self.particles, &lubrication) {
+            for film in &self.films {
                 let f = film.force_on_first(&rigid);
                 for c in 0..2 {
                     reaction[film.first][c] += f[c];

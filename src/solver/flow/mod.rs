@@ -51,7 +51,7 @@ use crate::fem::quadrature::{gauss_quad, QuadRule};
 use crate::fem::sparse::SparseMatrix;
 use crate::fem::substructure::Substructured;
 use crate::mesh::Mesh;
-use crate::solver::lubrication::Lubrication;
+use crate::solver::lubrication::{Film, Lubrication};
 use crate::solver::multiplier::{RigidCondition, Ring};
 use crate::solver::polymer_terms::PolymerStress;
 use crate::solver::rigid::{ElementCut, Particle, WeakForm};
@@ -210,6 +210,9 @@ pub struct Stokes {
     pub placements: usize,
     /// Solves, GMRES iterations and LU fallbacks so far.
     pub stats: FlowSolverStats,
+    /// The films corrected by the last assembly ([`StokesParams::lubrication`]), for the
+    /// reaction of the same solve.
+    films: Vec<Film>,
     /// The band solver of the current placement.
     band_solver: Option<Substructured>,
     /// Solves of [`FlowFactorization::Band`] that fell back to the whole matrix because the
@@ -313,6 +316,7 @@ impl Stokes {
             pattern_rebuilds: 0,
             placements: 0,
             stats: FlowSolverStats::default(),
+            films: Vec::new(),
             band_solver: None,
             band_fallbacks: 0,
             band_declines: 0,
@@ -431,6 +435,11 @@ impl Stokes {
     /// The particles.
     pub fn particles(&self) -> &[Particle] {
         &self.particles
+    }
+
+    /// The films the lubrication correction acted on in the last solve (none without it).
+    pub fn films(&self) -> &[Film] {
+        &self.films
     }
 
     /// Number of unknowns and of stored matrix entries.
