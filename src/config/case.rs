@@ -275,6 +275,14 @@ pub struct Numerics {
     /// near-contact`). Default off; not in the case id when off.
     #[serde(default, skip_serializing_if = "is_false")]
     pub lubrication: bool,
+    /// The Δt at which the SUPG parameter of the stress transport switches,
+    /// τ = min(h/(2‖u‖), Δt_τ/2) (thesis Eqs. 3.22–3.24 take the step's Δt). τ is part of the
+    /// spatial discretization — it sets how much the stress is damped along the streamlines,
+    /// e.g. at a singular corner — so a study of the time step holds it here, and only the time
+    /// discretization changes between its runs. Default: the step's Δt (an adaptive step: its
+    /// initial Δt). Viscoelastic cases only; not in the case id when left out.
+    #[serde(default, skip_serializing_if = "Option::is_none")]
+    pub supg_dt: Option<f64>,
 }
 
 /// A mesh that follows the particles (see [`Numerics::follow`]); lengths in particle radii.

@@ -163,6 +163,15 @@ impl CaseSpec {
         }
         n.dt.validate()?;
         positive("numerics.t_end", n.t_end)?;
+        if let Some(dt) = n.supg_dt {
+            positive("numerics.supg_dt", dt)?;
+            if self.relaxation_time() == 0.0 {
+                return Err(SpecError::new(
+                    "numerics.supg_dt",
+                    "a Newtonian case (no relaxation time) transports no stress: remove the field",
+                ));
+            }
+        }
         if n.t_end < n.dt.initial() {
             return Err(SpecError::new(
                 "numerics.t_end",

@@ -554,3 +554,36 @@ fn lubrication_is_off_unless_asked_for_and_only_then_in_the_case_id() {
     let eta0 = case.solvent_viscosity() + case.polymer_viscosity();
     assert!(lub.walls && (lub.viscosity - eta0).abs() < 1e-15);
 }
+
+#[test]
+fn supg_dt_holds_tau_only_when_asked_for_and_only_then_in_the_case_id() {
+    use crate::solver::constitutive::SupgVelocity;
+    let canonical = |v: Value| serde_json::to_value(CaseSpec::from_value(v).unwrap()).unwrap();
+    let plain = canonical(shear());
+    assert!(plain["numerics"].get("supg_dt").is_none());
+    let case = CaseSpec::from_value(shear()).unwrap();
+    assert_eq!(crate::simulate::settings::supg(&case), SupgVelocity::Local);
+    let mut held = shear();
+    held["numerics"]["supg_dt"] = json!(0.03);
+    assert_ne!(canonical(held.clone()), plain);
+    let case = CaseSpec::from_value(held).unwrap();
+    assert_eq!(
+        crate::simulate::settings::supg(&case),
+        SupgVelocity::LocalAt(0.03)
+    );
+    assert_eq!(
+        crate::simulate::settings::fluid_params(&case).supg,
+        SupgVelocity::LocalAt(0.03)
+    );
+    for bad in [json!(0.0), json!(-0.01)] {
+        let mut v = shear();
+        v["numerics"]["supg_dt"] = bad;
+        let err = CaseSpec::from_value(v).expect_err("not a step");
+        assert_eq!(err.field, "numerics.supg_dt");
+    }
+    let mut newtonian = shear();
+    newtonian["fluid"]["wi"] = json!(0.0);
+    newtonian["numerics"]["supg_dt"] = json!(0.03);
+    let err = CaseSpec::from_value(newtonian).expect_err("no stress");
+    assert!(err.message.contains("Newtonian"), "{}", err.message);
+}

@@ -138,6 +138,9 @@ pub struct FlowSettings {
     pub ghost_penalty: f64,
     /// Ghost penalty of the log-conformation transport.
     pub stress_ghost_penalty: f64,
+    /// The SUPG parameter of the stress transport (none without polymer).
+    #[serde(skip_serializing_if = "Option::is_none")]
+    pub supg: Option<String>,
     /// Ghost penalty of the Q1 projections.
     pub projection_ghost_penalty: f64,
     /// The lubrication correction of unresolved films (`numerics.lubrication`), if on.
@@ -219,10 +222,7 @@ pub fn fluid_params(case: &CaseSpec) -> ViscoelasticParams {
     if case.extrusion().is_some() {
         params.stress_ghost_penalty = SURFACE_STRESS_GHOST_PENALTY;
     }
-    if case.numerics.dt.adaptive().is_some() {
-        // the SUPG τ of the initial step throughout: the spatial discretization stays put
-        params.supg = SupgVelocity::LocalAt(dt);
-    }
+    params.supg = supg(case);
     match case.numerics.coupling {
         // without solvent viscosity the explicit stress has no viscous term (thesis §5.3.2)
         StressCoupling::Auto if eta_s == 0.0 => params.coupling = Coupling::SemiImplicit,
@@ -239,6 +239,17 @@ pub fn fluid_params(case: &CaseSpec) -> ViscoelasticParams {
         StressCoupling::SemiImplicit => params.coupling = Coupling::SemiImplicit,
     }
     params
+}
+
+/// The SUPG parameter of a case's stress transport: the Courant switch at `numerics.supg_dt`
+/// if given, else at the initial step of an adaptive Δt (the spatial discretization stays put
+/// while the step changes), else at the step's Δt (thesis Eqs. 3.22–3.24).
+pub fn supg(case: &CaseSpec) -> SupgVelocity {
+    match (case.numerics.supg_dt, case.numerics.dt.adaptive()) {
+        (Some(dt), _) => SupgVelocity::LocalAt(dt),
+        (None, Some(_)) => SupgVelocity::LocalAt(case.numerics.dt.initial()),
+        (None, None) => SupgVelocity::Local,
+    }
 }
 
 /// The lubrication correction of a case with `numerics.lubrication`: the zero-shear viscosity
@@ -356,6 +367,11 @@ impl Settings {
                 },
                 ghost_penalty: ghost(FLOW_GHOST_PENALTY),
                 stress_ghost_penalty: ghost(params.stress_ghost_penalty),
+                supg: polymer.then(|| match params.supg {
+                    SupgVelocity::Local => "tau = min(h/(2|u|), dt/2), dt the step's".to_string(),
+                    SupgVelocity::LocalAt(dt) => format!("tau = min(h/(2|u|), {dt}/2)"),
+                    SupgVelocity::Global(u) => format!("tau = h/(2 x {u})"),
+                }),
                 projection_ghost_penalty: ghost(PROJECTION_GHOST_PENALTY),
                 lubrication: lubrication(case).map(|l| {
                     format!(
