@@ -82,8 +82,8 @@ pub fn run_case(case: &CaseSpec, obs: &mut dyn CaseObserver) -> CaseResult {
         }
     }
     // (an extrusion's undisturbed surface, unless the saved state has it)
-    if let Err(e) = settle(&mut sim, obs) {
-        return ended_by(e, 0, 0.0);
+    if let Err((e, steps, t)) = settle(&mut sim, obs) {
+        return ended_in_prelude(e, steps, t);
     }
     if resumed.is_none() {
         if let Some(u) = sim.undisturbed() {
@@ -140,19 +140,23 @@ pub fn run_case(case: &CaseSpec, obs: &mut dyn CaseObserver) -> CaseResult {
 
 /// Steps the case's prelude (an extrusion's undisturbed flow) to its end, continuing from the
 /// observer's saved prelude state if it has one (one that does not fit starts it over) and
-/// handing it its state when due.
-fn settle(sim: &mut Simulation, obs: &mut dyn CaseObserver) -> Result<(), MovingError> {
-    let Some(mut prelude) = sim.prelude()? else {
+/// handing it its state when due. An error comes with the prelude's completed steps and time.
+fn settle(sim: &mut Simulation, obs: &mut dyn CaseObserver) -> Result<(), (MovingError, u64, f64)> {
+    let at_start = |e| (e, 0, 0.0);
+    let Some(mut prelude) = sim.prelude().map_err(at_start)? else {
         return Ok(());
     };
     if let Some(saved) = obs.resume_prelude() {
         if prelude.restore(&saved).is_err() {
             // (a restore that failed half-way leaves a flow of neither state)
-            prelude = sim.prelude()?.expect("a case with a prelude has one again");
+            prelude =
+                (sim.prelude().map_err(at_start)?).expect("a case with a prelude has one again");
         }
     }
     while !prelude.done() {
-        prelude.step()?;
+        prelude
+            .step()
+            .map_err(|e| (e, prelude.steps() as u64, prelude.time()))?;
         obs.on_prelude_step(prelude.time(), prelude.steps());
         if obs.prelude_due() {
             obs.save_prelude(&prelude.checkpoint());
@@ -191,6 +195,21 @@ fn ended_by(e: MovingError, steps: u64, t: f64) -> CaseResult {
         rejected_steps: None,
         flow_solver: None,
     }
+}
+
+/// The end of a run by an error in its prelude (an extrusion's undisturbed flow) after `steps`
+/// completed prelude steps at time `t`: as [`ended_by`], the message naming the prelude, its
+/// step and time, and the run itself at step 0.
+fn ended_in_prelude(e: MovingError, steps: u64, t: f64) -> CaseResult {
+    let mut result = ended_by(e, steps, t);
+    let prelude = format!("undisturbed prelude, t = {t:.4}: ");
+    match &mut result.status {
+        RunStatus::Diverged { reason } => reason.insert_str(0, &prelude),
+        RunStatus::Failed { error } => error.insert_str(0, &prelude),
+        RunStatus::Finished => {}
+    }
+    (result.steps, result.t) = (0, 0.0);
+    result
 }
 
 /// Whether an error is a non-finite state of the physics (particle velocities, the
@@ -245,6 +264,27 @@ mod tests {
             RunStatus::Failed { error } => {
                 assert!(error.starts_with("step 8, solve_flow:"), "{error}");
                 assert!(error.contains("3.200e-3"), "{error}");
+            }
+            s => panic!("a failed solve is not physics: {s:?}"),
+        }
+    }
+
+    /// An error in an extrusion's prelude names the prelude, its step and time, not step 1 of
+    /// the run.
+    #[test]
+    fn a_failure_in_the_prelude_names_the_prelude_step() {
+        let solve = MovingError::Flow(ViscoelasticError::Flow {
+            step: 2057,
+            source: SolveError::Inaccurate { residual: 3.2e-3 },
+        });
+        let r = ended_in_prelude(solve, 2056, 15.42);
+        assert_eq!((r.steps, r.t), (0, 0.0));
+        match r.status {
+            RunStatus::Failed { error } => {
+                assert!(
+                    error.starts_with("undisturbed prelude, t = 15.4200: step 2057, solve_flow:"),
+                    "{error}"
+                );
             }
             s => panic!("a failed solve is not physics: {s:?}"),
         }
