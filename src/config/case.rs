@@ -276,7 +276,8 @@ pub struct Numerics {
     #[serde(default, skip_serializing_if = "is_false")]
     pub lubrication: bool,
     /// The Δt at which the SUPG parameter of the stress transport switches,
-    /// τ = min(h/(2‖u‖), Δt_τ/2) (thesis Eqs. 3.22–3.24 take the step's Δt). τ is part of the
+    /// τ = min(h/(2‖u‖), Δt_τ/2) (thesis Eqs. 3.22–3.24 take the step's Δt), and at which an
+    /// extrusion's free surface takes its τ (`HeightFunction::advance`). τ is part of the
     /// spatial discretization — it sets how much the stress is damped along the streamlines,
     /// e.g. at a singular corner — so a study of the time step holds it here, and only the time
     /// discretization changes between its runs. Default: the step's Δt (an adaptive step: its
@@ -409,8 +410,14 @@ pub enum StressCoupling {
     /// cost of `explicit_coupled_g`; β > 0 only.
     ExplicitExtrapolated,
     /// D'Avino & Hulsen's semi-implicit stress (thesis Eqs. 5.26–5.29, 5.51), as in the thesis'
-    /// Ch. 5: second order, works at β = 0, non-symmetric flow matrix (LU, ~10× slower).
+    /// Ch. 5: works at β = 0, non-symmetric flow matrix (LU, ~10× slower); the DEVSS-G term
+    /// θGⁿ from the last step, which with η_s = 0 makes transients first order in time (θ = η_p
+    /// is then the flow's whole viscosity).
     SemiImplicit,
+    /// The semi-implicit stress with G solved with the flow (coupled DEVSS-G): no lagged term,
+    /// second order in time — the scheme `xpflow validate translating-cylinder` measures — at
+    /// the cost of a larger flow system.
+    SemiImplicitCoupledG,
 }
 
 impl StressCoupling {

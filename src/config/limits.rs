@@ -49,6 +49,13 @@ const SEMI_IMPLICIT_EXPONENT: f64 = 1.25;
 pub const COUPLED_G_STEP_COST: f64 = 2.4;
 /// Relative cost of a semi-implicit step (docs/sweeps.md: ≈ 10× the explicit step).
 pub const SEMI_IMPLICIT_STEP_COST: f64 = 10.0;
+/// Peak memory of the semi-implicit coupling with G solved with the flow relative to the lagged
+/// G's: `xpflow run`, 200×50, three particles, β = 0, 25 steps: 1.07 GB against 625 MB (1.72;
+/// four more unknowns per Q1 vertex), with margin.
+const SEMI_IMPLICIT_COUPLED_G_MEMORY: f64 = 1.9;
+/// Cost of a semi-implicit step with G solved with the flow relative to the lagged G's: the same
+/// runs, 1.56 s against 0.645 s per step (set-up subtracted).
+pub const SEMI_IMPLICIT_COUPLED_G_STEP_COST: f64 = 2.4;
 /// t_end/Δt within this of a whole number is that number of steps (0.3/0.1 = 2.9999999999999996).
 const STEP_ROUND_OFF: f64 = 1e-9;
 
@@ -69,6 +76,11 @@ impl CaseSpec {
                 _ if !polymer => EXPLICIT_BYTES_PER_ELEMENT * e,
                 StressCoupling::SemiImplicit => {
                     SEMI_IMPLICIT_BYTES * e.powf(SEMI_IMPLICIT_EXPONENT)
+                }
+                StressCoupling::SemiImplicitCoupledG => {
+                    SEMI_IMPLICIT_COUPLED_G_MEMORY
+                        * SEMI_IMPLICIT_BYTES
+                        * e.powf(SEMI_IMPLICIT_EXPONENT)
                 }
                 StressCoupling::ExplicitCoupledG | StressCoupling::ExplicitExtrapolated => {
                     COUPLED_G_BYTES_PER_ELEMENT * e
@@ -103,6 +115,9 @@ impl CaseSpec {
         }
         match self.resolved_coupling() {
             StressCoupling::SemiImplicit => SEMI_IMPLICIT_STEP_COST,
+            StressCoupling::SemiImplicitCoupledG => {
+                SEMI_IMPLICIT_COUPLED_G_STEP_COST * SEMI_IMPLICIT_STEP_COST
+            }
             StressCoupling::ExplicitCoupledG | StressCoupling::ExplicitExtrapolated => {
                 COUPLED_G_STEP_COST
             }

@@ -237,6 +237,10 @@ pub fn fluid_params(case: &CaseSpec) -> ViscoelasticParams {
             params.extrapolate_stress = true;
         }
         StressCoupling::SemiImplicit => params.coupling = Coupling::SemiImplicit,
+        StressCoupling::SemiImplicitCoupledG => {
+            params.coupling = Coupling::SemiImplicit;
+            params.coupled_g = true;
+        }
     }
     params
 }
@@ -293,7 +297,8 @@ impl Settings {
                 "explicit (extrapolated stress, coupled G)"
             }
             (true, Coupling::Explicit, true) => "explicit (coupled G)",
-            (true, Coupling::SemiImplicit, _) => "semi_implicit",
+            (true, Coupling::SemiImplicit, false) => "semi_implicit (lagged G)",
+            (true, Coupling::SemiImplicit, true) => "semi_implicit (coupled G)",
         };
         let lu = params.coupling == Coupling::SemiImplicit && polymer;
         let cut = cut_options(case);
@@ -511,7 +516,14 @@ mod tests {
         let s = Settings::of(&ucm);
         assert_eq!(
             (s.flow.stress_coupling, s.flow.solver),
-            ("semi_implicit", "LU")
+            ("semi_implicit (lagged G)", "LU")
+        );
+        ucm.numerics.coupling = crate::config::StressCoupling::SemiImplicitCoupledG;
+        let s = Settings::of(&ucm);
+        assert!(fluid_params(&ucm).coupled_g);
+        assert_eq!(
+            (s.flow.stress_coupling, s.flow.solver),
+            ("semi_implicit (coupled G)", "LU")
         );
         let mut newtonian = c;
         newtonian.fluid.model = crate::config::Model::Newtonian;

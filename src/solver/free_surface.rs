@@ -144,12 +144,15 @@ impl HeightFunction {
 
     /// One step of the kinematic equation: Hⁿ⁺¹ from the surface velocity `u[i]` = (u_x, u_y) at
     /// the nodes (of the flow on the predicted surface), by SUPG and BDF2 with steps `dt` (now)
-    /// and `dt_prev` (the last; variable-step Gear coefficients), BDF1 on the first step. Returns
-    /// max_i |Hⁿ⁺¹ − Hⁿ|.
+    /// and `dt_prev` (the last; variable-step Gear coefficients), BDF1 on the first step, the
+    /// SUPG parameter τ = ((2/Δt_τ)² + (2|a|/h)²)^(−1/2) of a transient advection at `tau_dt`
+    /// (the step's Δt, or a fixed one that keeps the spatial discretization from following the
+    /// step: without it τ → Δt/2 as Δt → 0, and the surface downstream of a singular corner loses
+    /// its damping). Returns max_i |Hⁿ⁺¹ − Hⁿ|.
     ///
     /// # Panics
     /// If `u` does not have one velocity per node.
-    pub fn advance(&mut self, u: &[[f64; 2]], dt: f64, dt_prev: f64) -> f64 {
+    pub fn advance(&mut self, u: &[[f64; 2]], dt: f64, dt_prev: f64, tau_dt: f64) -> f64 {
         let n = self.x.len();
         assert_eq!(u.len(), n, "one velocity per surface node");
         // ∂H/∂t ≈ (c₀ Hⁿ⁺¹ − c₁ Hⁿ + c₂ Hⁿ⁻¹)/dt
@@ -166,7 +169,7 @@ impl HeightFunction {
             let len = self.x[e + 1] - self.x[e];
             let a_mean = 0.5 * (u[e][0] + u[e + 1][0]);
             // SUPG parameter of a transient advection (time and advection scales)
-            let tau = ((2.0 / dt).powi(2) + (2.0 * a_mean.abs() / len).powi(2)).powf(-0.5);
+            let tau = ((2.0 / tau_dt).powi(2) + (2.0 * a_mean.abs() / len).powi(2)).powf(-0.5);
             for s in [0.5 * (1.0 - g), 0.5 * (1.0 + g)] {
                 let w = 0.5 * len;
                 let phi = [1.0 - s, s];
@@ -397,7 +400,7 @@ mod tests {
         let u = vec![[1.0, 0.1]; x.len()];
         let mut change = 1.0;
         for _ in 0..400 {
-            change = s.advance(&u, 0.05, 0.05);
+            change = s.advance(&u, 0.05, 0.05, 0.05);
         }
         assert!(change < TOL, "steady: {change}");
         for (xi, h) in x.iter().zip(s.heights()) {

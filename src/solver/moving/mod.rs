@@ -30,6 +30,7 @@ use crate::solver::ale::{AleMap, Remap, RigidMove, TemporaryAle};
 use crate::solver::cutcells::{compute_cuts_bounded, Discretization};
 use crate::solver::free_surface::HeightFunction;
 use crate::solver::rigid::{ElementCut, Motion, Particle};
+use crate::solver::supg::SupgVelocity;
 use crate::solver::viscoelastic::{
     FlowSolution, HistoryMap, StepReport, ViscoelasticError, ViscoelasticFlow, ViscoelasticParams,
 };
@@ -391,6 +392,11 @@ impl<D: Confinement + Clone + 'static> MovingParticles<D> {
         step: usize,
     ) -> Result<(), MovingError> {
         let dt = self.dt();
+        // the stress transport's SUPG step, so that one setting holds both τ
+        let tau_dt = match self.flow.params().supg {
+            SupgVelocity::LocalAt(fixed) => fixed,
+            SupgVelocity::Local | SupgVelocity::Global(_) => dt,
+        };
         let surface = self
             .surface
             .as_mut()
@@ -399,8 +405,7 @@ impl<D: Confinement + Clone + 'static> MovingParticles<D> {
             self.flow.mesh(),
             self.flow.velocity(),
             predicted,
-            dt,
-            dt_prev,
+            [dt, dt_prev, tau_dt],
             step,
         )?;
         Ok(())

@@ -136,8 +136,8 @@ impl Surface {
     }
 
     /// Step 5 of §6.3.4: Hⁿ⁺¹ by the kinematic equation with the flow's `velocity` (Q2 nodes of
-    /// `mesh`) on `predicted`, then Ĥⁿ⁺¹ = `predicted` becomes the fields' configuration.
-    /// Returns max|Hⁿ⁺¹ − Hⁿ|.
+    /// `mesh`) on `predicted`, its SUPG τ at `tau_dt` ([`HeightFunction::advance`]), then
+    /// Ĥⁿ⁺¹ = `predicted` becomes the fields' configuration. Returns max|Hⁿ⁺¹ − Hⁿ|.
     ///
     /// # Errors
     /// [`MovingError::SurfaceEscaped`] if a surface point has left the mesh (the swell outgrew
@@ -147,14 +147,13 @@ impl Surface {
         mesh: &Mesh,
         velocity: &[[f64; 2]],
         predicted: HeightFunction,
-        dt: f64,
-        dt_prev: f64,
+        [dt, dt_prev, tau_dt]: [f64; 3],
         step: usize,
     ) -> Result<f64, MovingError> {
         let u = velocity_on(mesh, velocity, &predicted, self.extrusion.top)
             .map_err(|(x, height)| MovingError::SurfaceEscaped { step, x, height })?;
         self.fields_at = predicted;
-        self.change = self.height.advance(&u, dt, dt_prev);
+        self.change = self.height.advance(&u, dt, dt_prev, tau_dt);
         Ok(self.change)
     }
 
