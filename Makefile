@@ -49,6 +49,7 @@ validate: build
 	$(BIN) validate cylinder --wi 0.6 --h 0.1,0.05 --dt 0.01 --t-max 30
 	$(BIN) validate translating-cylinder --h 0.125
 	$(BIN) validate explicit-coupling --h 0.25
+	$(BIN) validate semi-implicit-coupling --h 0.25
 	$(BIN) validate variable-steps --h 0.125
 	$(BIN) validate lab-frame
 	$(BIN) validate couette-frame

@@ -178,6 +178,11 @@ pub enum Study {
     /// Δt (0.02 … 0.005 against 0.0025) with the lagged Gⁿ and with G as flow unknowns, on the
     /// first `--h`; the verdict asks second order of the latter.
     ExplicitCoupling,
+    /// The translating cylinder held at rest with η_s = 0 and the semi-implicit coupling: order
+    /// in Δt (0.02 … 0.005 against 0.0025) with the lagged Gⁿ (`semi_implicit`, what `auto`
+    /// runs at β = 0) and with G as flow unknowns (`semi_implicit_coupled_g`), on the first
+    /// `--h`; the verdict asks second order of the latter.
+    SemiImplicitCoupling,
     /// A particle crossing the fixed mesh (thesis §5.5, Y0/H = 0.1, 160×80, 0.66 elements per
     /// step) in the lab frame against a frame moving with it: ω*, V* per history remap up to
     /// t* = 2.5 (≈ 4 min); the verdict is the default (bicubic) remap's.

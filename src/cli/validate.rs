@@ -119,7 +119,7 @@ pub(super) fn validate_particles(
                     cut,
                     remap,
                     frame,
-                    CylinderStress::Thesis,
+                    CylinderStress::Thesis { coupled_g: true },
                 )?;
                 match frame {
                     Frame::Cylinder => println!("cylinder frame (no ALE)\n{}", s.to_markdown()),
@@ -154,7 +154,7 @@ pub(super) fn validate_particles(
                 cut,
                 remap,
                 Frame::Channel,
-                CylinderStress::Thesis,
+                CylinderStress::Thesis { coupled_g: true },
             )?;
             println!(
                 "channel frame, history remap {remap:?}\n{}",
@@ -185,6 +185,34 @@ pub(super) fn validate_particles(
                 };
                 println!(
                     "cylinder frame, η_s = 0.1, explicit coupling, {g}\n{}",
+                    s.to_markdown()
+                );
+                ok &= !coupled_g || s.rate >= MIN_TIME_RATE;
+            }
+        }
+        Study::SemiImplicitCoupling => {
+            use crate::solver::ale::Remap;
+            use crate::validate::moving::{
+                translating_cylinder_convergence, CylinderStress, Frame, MIN_TIME_RATE,
+            };
+            let h = hs.first().copied().unwrap_or(0.25);
+            for coupled_g in [false, true] {
+                let s = translating_cylinder_convergence(
+                    h,
+                    &[0.02, 0.01, 0.005],
+                    0.0025,
+                    cut,
+                    Remap::Bilinear,
+                    Frame::Cylinder,
+                    CylinderStress::Thesis { coupled_g },
+                )?;
+                let g = if coupled_g {
+                    "coupled G (semi_implicit_coupled_g)"
+                } else {
+                    "lagged Gⁿ (semi_implicit, auto at β = 0)"
+                };
+                println!(
+                    "cylinder frame, η_s = 0, semi-implicit coupling, {g}\n{}",
                     s.to_markdown()
                 );
                 ok &= !coupled_g || s.rate >= MIN_TIME_RATE;
@@ -372,7 +400,10 @@ pub(super) fn couette_wall_mode(
 pub(super) fn default_meshes(study: Study, wi: f64) -> Vec<f64> {
     if matches!(
         study,
-        Study::TranslatingCylinder | Study::ExplicitCoupling | Study::VariableSteps
+        Study::TranslatingCylinder
+            | Study::ExplicitCoupling
+            | Study::SemiImplicitCoupling
+            | Study::VariableSteps
     ) {
         // each has its own default element size (`hs.first()` or it)
         Vec::new()

@@ -40,9 +40,13 @@ pub enum Frame {
 /// Fluid and stress coupling of the translating cylinder.
 #[derive(Debug, Clone, Copy, PartialEq, Eq)]
 pub enum CylinderStress {
-    /// Thesis §5.4: η_s = 0, semi-implicit stress (BDF2 predictor), coupled DEVSS-G, the
-    /// thesis' weak rigid-body condition.
-    Thesis,
+    /// Thesis §5.4: η_s = 0, semi-implicit stress (BDF2 predictor), the thesis' weak rigid-body
+    /// condition; DEVSS-G with G as flow unknowns (`coupled_g`, the thesis' scheme) or the lagged
+    /// Gⁿ (`numerics.coupling = "semi_implicit"`, what `auto` runs at β = 0).
+    Thesis {
+        /// G as flow unknowns.
+        coupled_g: bool,
+    },
     /// η_s = 0.1 (η_p = 1), the explicit coupling the runner uses for β > 0, symmetric weak
     /// condition; DEVSS-G with the lagged Gⁿ (`coupled_g = false`) or G as flow unknowns.
     Explicit {
@@ -81,11 +85,11 @@ fn cylinder_run(
     // η_s = 0: the semi-implicit stress of Eq. 5.51 (the explicit one is unstable without
     // solvent viscosity), the thesis' weak rigid-body condition (coercive on any cut)
     let params = match stress {
-        CylinderStress::Thesis => {
+        CylinderStress::Thesis { coupled_g } => {
             let mut p = ViscoelasticParams::new(0.0, 1.0, LAMBDA, 0.1, dt, LAMBDA);
             p.coupling = Coupling::SemiImplicit;
             p.rigid_form = WeakForm::Thesis;
-            p.coupled_g = true;
+            p.coupled_g = coupled_g;
             p
         }
         CylinderStress::Explicit { coupled_g } => {
