@@ -162,13 +162,34 @@ pub(super) fn validate_particles(
             );
             ok &= s.passed();
         }
-        Study::ExplicitCoupling => {
+        Study::ExplicitCoupling | Study::SemiImplicitCoupling => {
             use crate::solver::ale::Remap;
             use crate::validate::moving::{
                 translating_cylinder_convergence, CylinderStress, Frame, MIN_TIME_RATE,
             };
+            let explicit = study == Study::ExplicitCoupling;
             let h = hs.first().copied().unwrap_or(0.25);
             for coupled_g in [false, true] {
+                let (stress, fluid, g) = match (explicit, coupled_g) {
+                    (true, _) => (
+                        CylinderStress::Explicit { coupled_g },
+                        "η_s = 0.1, explicit coupling",
+                        if coupled_g {
+                            "coupled G"
+                        } else {
+                            "lagged Gⁿ"
+                        },
+                    ),
+                    (false, _) => (
+                        CylinderStress::Thesis { coupled_g },
+                        "η_s = 0, semi-implicit coupling",
+                        if coupled_g {
+                            "coupled G (semi_implicit_coupled_g)"
+                        } else {
+                            "lagged Gⁿ (semi_implicit, auto at β = 0)"
+                        },
+                    ),
+                };
                 let s = translating_cylinder_convergence(
                     h,
                     &[0.02, 0.01, 0.005],
@@ -176,45 +197,9 @@ pub(super) fn validate_particles(
                     cut,
                     Remap::Bilinear,
                     Frame::Cylinder,
-                    CylinderStress::Explicit { coupled_g },
+                    stress,
                 )?;
-                let g = if coupled_g {
-                    "coupled G"
-                } else {
-                    "lagged Gⁿ"
-                };
-                println!(
-                    "cylinder frame, η_s = 0.1, explicit coupling, {g}\n{}",
-                    s.to_markdown()
-                );
-                ok &= !coupled_g || s.rate >= MIN_TIME_RATE;
-            }
-        }
-        Study::SemiImplicitCoupling => {
-            use crate::solver::ale::Remap;
-            use crate::validate::moving::{
-                translating_cylinder_convergence, CylinderStress, Frame, MIN_TIME_RATE,
-            };
-            let h = hs.first().copied().unwrap_or(0.25);
-            for coupled_g in [false, true] {
-                let s = translating_cylinder_convergence(
-                    h,
-                    &[0.02, 0.01, 0.005],
-                    0.0025,
-                    cut,
-                    Remap::Bilinear,
-                    Frame::Cylinder,
-                    CylinderStress::Thesis { coupled_g },
-                )?;
-                let g = if coupled_g {
-                    "coupled G (semi_implicit_coupled_g)"
-                } else {
-                    "lagged Gⁿ (semi_implicit, auto at β = 0)"
-                };
-                println!(
-                    "cylinder frame, η_s = 0, semi-implicit coupling, {g}\n{}",
-                    s.to_markdown()
-                );
+                println!("cylinder frame, {fluid}, {g}\n{}", s.to_markdown());
                 ok &= !coupled_g || s.rate >= MIN_TIME_RATE;
             }
         }
