@@ -409,6 +409,38 @@ mod tests {
         assert_eq!(s.heights()[0], 1.0, "pinned at the die exit");
     }
 
+    /// τ held at a fixed Δt (`tau_dt`) keeps the discrete steady surface from following the step;
+    /// τ at the step's Δt does not. A surface source that varies along x, so that the SUPG term
+    /// matters (a linear H is exact for any τ): steady H after stepping with Δt 0.05 and 0.0125.
+    #[test]
+    fn a_held_tau_makes_the_steady_surface_independent_of_the_step() {
+        /// The steady test of the stepping below (the BDF2 residual at convergence).
+        const STEADY: f64 = 1e-13;
+        let x: Vec<f64> = (0..=20).map(|i| 0.1 * i as f64).collect();
+        let u: Vec<[f64; 2]> = x.iter().map(|&xi| [0.5, 0.2 * (3.0 * xi).sin()]).collect();
+        let steady = |dt: f64, tau_dt: f64| {
+            let mut s = HeightFunction::flat(x.clone(), 1.0);
+            let mut change = 1.0;
+            while change > STEADY {
+                change = s.advance(&u, dt, dt, tau_dt);
+            }
+            s.heights().to_vec()
+        };
+        let diff = |a: &[f64], b: &[f64]| {
+            a.iter()
+                .zip(b)
+                .map(|(p, q)| (p - q).abs())
+                .fold(0.0, f64::max)
+        };
+        let held = diff(&steady(0.05, 0.05), &steady(0.0125, 0.05));
+        let following = diff(&steady(0.05, 0.05), &steady(0.0125, 0.0125));
+        assert!(held < 1e-10, "τ held: the steady surfaces differ by {held}");
+        assert!(
+            following > 1e-4,
+            "τ at the step: they differ by only {following}"
+        );
+    }
+
     /// The stretch as a vertex displacement: the old surface's points land on the new surface,
     /// the symmetry line, the mesh top and the die stay; the gap of a particle to a surface.
     #[test]

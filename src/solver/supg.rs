@@ -50,9 +50,19 @@ impl SupgVelocity {
     #[inline]
     pub fn tau(self, speed: f64, h: f64, dt: f64) -> f64 {
         match self {
-            SupgVelocity::Local => supg_tau(speed, h, dt),
             SupgVelocity::Global(u) => h / (2.0 * u),
-            SupgVelocity::LocalAt(fixed) => supg_tau(speed, h, fixed),
+            SupgVelocity::Local | SupgVelocity::LocalAt(_) => supg_tau(speed, h, self.step(dt)),
+        }
+    }
+
+    /// The Δt a τ of this kind is taken at during a step `dt`: the fixed one of
+    /// [`LocalAt`](Self::LocalAt), else the step's. (Also the Δt of the free surface's τ, so
+    /// that one setting holds both.)
+    #[inline]
+    pub fn step(self, dt: f64) -> f64 {
+        match self {
+            SupgVelocity::LocalAt(fixed) => fixed,
+            SupgVelocity::Local | SupgVelocity::Global(_) => dt,
         }
     }
 }

@@ -30,7 +30,6 @@ use crate::solver::ale::{AleMap, Remap, RigidMove, TemporaryAle};
 use crate::solver::cutcells::{compute_cuts_bounded, Discretization};
 use crate::solver::free_surface::HeightFunction;
 use crate::solver::rigid::{ElementCut, Motion, Particle};
-use crate::solver::supg::SupgVelocity;
 use crate::solver::viscoelastic::{
     FlowSolution, HistoryMap, StepReport, ViscoelasticError, ViscoelasticFlow, ViscoelasticParams,
 };
@@ -392,11 +391,7 @@ impl<D: Confinement + Clone + 'static> MovingParticles<D> {
         step: usize,
     ) -> Result<(), MovingError> {
         let dt = self.dt();
-        // the stress transport's SUPG step, so that one setting holds both τ
-        let tau_dt = match self.flow.params().supg {
-            SupgVelocity::LocalAt(fixed) => fixed,
-            SupgVelocity::Local | SupgVelocity::Global(_) => dt,
-        };
+        let tau_dt = self.flow.params().supg.step(dt);
         let surface = self
             .surface
             .as_mut()
