@@ -29,12 +29,15 @@ use super::krylov::gmres;
 use super::sparse::SparseMatrix;
 
 mod order;
+mod probe;
 mod schur;
 mod symmetric_part;
 mod trisolve;
 
 use order::block_amd_ordering;
 pub use order::DofBlocks;
+use probe::Probe;
+pub use probe::{ProbeVerdict, PROBE_MAX_UNKNOWNS};
 use symmetric_part::SymmetricPart;
 
 /// Which factorization to use.
@@ -229,7 +232,7 @@ impl DirectSolver {
             scaled: None,
             last_polish: 0,
             lu_fallbacks: 0,
-            probe: Probe::Watching,
+            probe: Probe::initial(n),
             factor_time: 0.0,
             at: Vec::new(),
             work: Vec::new(),
@@ -406,25 +409,7 @@ impl DirectSolver {
         };
         self.last_polish = polish;
         let cost = self.factor_time + start.elapsed().as_secs_f64();
-        match std::mem::replace(&mut self.probe, Probe::Decided) {
-            Probe::Watching
-                if polish > PROBE_ITERATIONS
-                    && matches!(self.backend, Backend::SymmetricPart(_)) =>
-            {
-                self.probe = Probe::Pending {
-                    symmetric_cost: cost,
-                }
-            }
-            Probe::Probing {
-                symmetric_cost,
-                parked,
-            } if symmetric_cost < cost => {
-                // the symmetric part was cheaper: back to it
-                self.backend = Backend::SymmetricPart(parked);
-            }
-            Probe::Probing { .. } => self.lu_fallbacks += 1,
-            other => self.probe = other,
-        }
+        self.record_probe(polish, cost);
         Ok(res)
     }
 
@@ -505,26 +490,6 @@ pub fn checked_solve(
     } else {
         Err(SolveError::Inaccurate { residual: res })
     }
-}
-
-/// GMRES iterations on the symmetric part above which a whole LU is timed once against it (a
-/// few iterations always win; on small or strongly non-symmetric systems the LU may).
-const PROBE_ITERATIONS: usize = 5;
-
-/// Whether the symmetric-part path has been timed against a whole LU.
-enum Probe {
-    /// Few iterations so far: nothing to compare.
-    Watching,
-    /// The last solve took many iterations at `symmetric_cost` seconds (factor + solve): the
-    /// next factorization is a whole LU, timed.
-    Pending { symmetric_cost: f64 },
-    /// The LU is being timed; the symmetric part waits.
-    Probing {
-        symmetric_cost: f64,
-        parked: Box<SymmetricPart>,
-    },
-    /// Compared (or no comparison applies): the backend stays.
-    Decided,
 }
 
 /// Most GMRES iterations polishing a direct solve in [`DirectSolver::solve_checked`]; a good

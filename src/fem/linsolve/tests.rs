@@ -1,4 +1,5 @@
 //! Tests of the direct solvers.
+use super::probe::PROBE_ITERATIONS;
 use super::*;
 use crate::fem::sparse::PatternBuilder;
 
@@ -153,4 +154,68 @@ fn a_slow_symmetric_part_is_timed_against_an_lu_and_either_way_solves() {
     }
     assert!(matches!(s.probe, Probe::Decided));
     assert!(s.lu_fallbacks() <= 1);
+}
+
+/// The slow system of the test above on `n` unknowns: tridiag(−2, 4, 0).
+fn slow_tridiagonal(n: usize) -> SparseMatrix {
+    let mut pb = PatternBuilder::new(n);
+    for i in 0..n - 1 {
+        pb.add_group(&[i, i + 1]);
+    }
+    let mut a = pb.build();
+    for i in 0..n {
+        a.add(i, i, 4.0);
+        if i + 1 < n {
+            a.add(i + 1, i, -2.0);
+        }
+    }
+    a
+}
+
+/// Above [`PROBE_MAX_UNKNOWNS`] a slow symmetric part is not timed against an LU (whose
+/// reservation alone outweighs what it could save there), and the solves still meet the
+/// tolerance.
+#[test]
+fn a_large_system_is_never_timed_against_an_lu() {
+    // residual tolerance: round-off on a well-conditioned system
+    const TOL: f64 = 1e-12;
+    let n = PROBE_MAX_UNKNOWNS + 1;
+    let a = slow_tridiagonal(n);
+    let order: Vec<usize> = (0..n).collect();
+    let b: Vec<f64> = (0..n).map(|i| (i as f64).cos() + 0.5).collect();
+    let mut s = DirectSolver::analyze_with_order(&a, SolverKind::Lu, &order).unwrap();
+    let mut x = vec![0.0; n];
+    for _ in 0..3 {
+        s.factor(&a).unwrap();
+        assert!(s.solve_checked(&a, &b, &mut x, TOL).unwrap() < TOL);
+        assert!(s.last_polish_iterations() > PROBE_ITERATIONS);
+        // decided from the start: no LU is ever pending
+        assert!(matches!(s.backend, Backend::SymmetricPart(_)));
+        assert_eq!(s.probe_verdict(), Some(ProbeVerdict::SymmetricPart));
+    }
+    assert_eq!(s.lu_fallbacks(), 0);
+}
+
+/// A verdict handed to the solver of a rebuilt pattern is kept: no second probe, and an LU
+/// verdict factors by LU from the first solve.
+#[test]
+fn a_probe_verdict_outlives_its_solver() {
+    const TOL: f64 = 1e-12;
+    let n = 40;
+    let a = slow_tridiagonal(n);
+    let order: Vec<usize> = (0..n).collect();
+    let b: Vec<f64> = (0..n).map(|i| (i as f64).sin() + 1.0).collect();
+    for verdict in [ProbeVerdict::SymmetricPart, ProbeVerdict::Lu] {
+        let mut s = DirectSolver::analyze_with_order(&a, SolverKind::Lu, &order).unwrap();
+        assert_eq!(s.probe_verdict(), None, "a new solver watches");
+        s.settle(verdict, &a).unwrap();
+        let mut x = vec![0.0; n];
+        for _ in 0..3 {
+            s.factor(&a).unwrap();
+            assert!(s.solve_checked(&a, &b, &mut x, TOL).unwrap() < TOL);
+            assert!(matches!(s.probe, Probe::Decided));
+        }
+        let lu = matches!(s.backend, Backend::Lu { .. });
+        assert_eq!(lu, verdict == ProbeVerdict::Lu, "{verdict:?}");
+    }
 }

@@ -46,7 +46,7 @@ use multipliers::{links_cover, ring_links, rings_for, RingLink};
 use pattern::{build_pattern, reach_for, Reach};
 
 use crate::fem::element::{q1, q2_map};
-use crate::fem::linsolve::{DirectSolver, SolveError, SolverKind};
+use crate::fem::linsolve::{DirectSolver, ProbeVerdict, SolveError, SolverKind};
 use crate::fem::quadrature::{gauss_quad, QuadRule};
 use crate::fem::sparse::SparseMatrix;
 use crate::fem::substructure::Substructured;
@@ -200,6 +200,9 @@ pub struct Stokes {
     walls: Vec<VelocityCondition>,
     pressure_pinned: bool,
     solver: Option<DirectSolver>,
+    /// The symmetric-part solver's comparison with a whole LU, kept for the solver of a rebuilt
+    /// pattern (`fem::linsolve::probe`).
+    probe_verdict: Option<ProbeVerdict>,
     factored_values: Option<Vec<f64>>,
     /// Numeric factorizations done so far (a solve reuses the last one when the matrix is
     /// unchanged).
@@ -311,6 +314,7 @@ impl Stokes {
             walls: Vec::new(),
             pressure_pinned: false,
             solver: None,
+            probe_verdict: None,
             factored_values: None,
             refactorizations: 0,
             pattern_rebuilds: 0,
@@ -370,7 +374,9 @@ impl Stokes {
             );
             self.positions.clear();
             self.face_positions.clear();
-            self.solver = None;
+            if let Some(v) = self.solver.take().and_then(|s| s.probe_verdict()) {
+                self.probe_verdict = Some(v);
+            }
             self.band_solver = None;
             self.fluid_base = None;
             self.pattern_rebuilds += 1;
@@ -503,7 +509,15 @@ impl Stokes {
                     &self.dof_blocks(),
                 )?,
                 SolverKind::Lu => {
-                    DirectSolver::analyze_blocked(&self.matrix, SolverKind::Lu, &self.dof_blocks())?
+                    let mut solver = DirectSolver::analyze_blocked(
+                        &self.matrix,
+                        SolverKind::Lu,
+                        &self.dof_blocks(),
+                    )?;
+                    if let Some(verdict) = self.probe_verdict {
+                        solver.settle(verdict, &self.matrix)?;
+                    }
+                    solver
                 }
             });
             symbolic = t1.elapsed().as_secs_f64();
