@@ -194,3 +194,51 @@ fn a_killed_prelude_continues_from_its_saved_state() {
         assert!((a[1] - b[1]).abs() < SAME, "{a:?} against {b:?}");
     }
 }
+
+/// `output.undisturbed_surface = false` skips the prelude: the run's first sample comes without
+/// a prelude step, reports no undisturbed surface and leaves the separation empty, and its
+/// particle takes the same steps as the case with the prelude (which only measures from H̄).
+/// Other geometries refuse the field.
+#[test]
+fn a_case_may_skip_the_undisturbed_surface() {
+    // the particle's run does not read the prelude: bitwise the same steps
+    const SAME: f64 = 0.0;
+    let mut case = coarse_case();
+    case.numerics.mesh = [35, 10];
+    let with = CaseSpec::from_value(serde_json::to_value(&case).unwrap()).unwrap();
+    case.output.undisturbed_surface = false;
+    let without = CaseSpec::from_value(serde_json::to_value(&case).unwrap()).unwrap();
+    assert!(!without.output.undisturbed_surface);
+    let mut skipped = PreludeWatch::default();
+    xpflow::simulate::run::run_case(&without, &mut skipped);
+    assert_eq!(skipped.steps_here.get(), 0, "no prelude step");
+    assert!(skipped.surface.is_none());
+
+    let (mut a, mut b) = (
+        Simulation::new(&with).unwrap(),
+        Simulation::new(&without).unwrap(),
+    );
+    a.settle().unwrap();
+    b.settle().unwrap();
+    assert!(a.undisturbed().is_some() && b.undisturbed().is_none());
+    for _ in 0..2 {
+        a.step().unwrap();
+        b.step().unwrap();
+    }
+    let (pa, pb) = (a.sample().particles[0], b.sample().particles[0]);
+    assert!(pa.separation.is_some() && pb.separation.is_none());
+    assert!((pa.y - pb.y).abs() <= SAME && (pa.u - pb.u).abs() <= SAME);
+
+    let err = CaseSpec::from_value(serde_json::json!({
+        "geometry": { "confined_shear": { "h": 1.0, "l": 4.0 } },
+        "fluid": { "model": "oldroyd_b", "wi": 1.0, "beta": 0.1 },
+        "particles": { "radius": 0.1, "layout": { "explicit": { "positions": [[0.0, 0.0]] } } },
+        "numerics": { "mesh": [40, 10], "dt": 0.02, "t_end": 1.0 },
+        "output": { "undisturbed_surface": false }
+    }))
+    .unwrap_err();
+    assert!(
+        err.to_string().contains("output.undisturbed_surface"),
+        "{err}"
+    );
+}

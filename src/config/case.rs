@@ -471,6 +471,13 @@ pub struct Output {
     /// Write an HDF5 field snapshot every m time steps; 0 (default) writes none.
     #[serde(default)]
     pub snapshot_every: u64,
+    /// Extrusion: compute the undisturbed steady surface H̄ first (a prelude without the
+    /// particles, up to thousands of steps), from which the separation s = Y + a − H̄(X) and the
+    /// undisturbed swell are measured; default true. `false` skips it — for runs whose
+    /// separation is not wanted, e.g. a particle's drift in the die — and leaves s empty. (The
+    /// particles' run starts from the flat surface either way.)
+    #[serde(default = "yes", skip_serializing_if = "is_true")]
+    pub undisturbed_surface: bool,
 }
 
 impl Default for Output {
@@ -478,6 +485,7 @@ impl Default for Output {
         Output {
             sample_every: default_sample_every(),
             snapshot_every: 0,
+            undisturbed_surface: true,
         }
     }
 }
@@ -506,6 +514,9 @@ fn one() -> f64 {
 }
 fn yes() -> bool {
     true
+}
+fn is_true(v: &bool) -> bool {
+    *v
 }
 fn default_quadtree_level() -> u32 {
     DEFAULT_QUADTREE_LEVEL

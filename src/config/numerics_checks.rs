@@ -201,6 +201,12 @@ impl CaseSpec {
                 "must be ≥ 1 (store every k-th step)",
             ));
         }
+        if !self.output.undisturbed_surface && self.extrusion().is_none() {
+            return Err(SpecError::new(
+                "output.undisturbed_surface",
+                "only an extrusion has an undisturbed surface to skip; remove the field",
+            ));
+        }
         Ok(())
     }
 }

@@ -171,7 +171,11 @@ impl Simulation {
                 .dt
                 .adaptive()
                 .map(|a| StepController::new(a, case.characteristic_rate())),
-            unsettled: case.extrusion().map(|_| case.clone()),
+            // (an extrusion's undisturbed surface, unless the case skips it)
+            unsettled: case
+                .extrusion()
+                .filter(|_| case.output.undisturbed_surface)
+                .map(|_| case.clone()),
             undisturbed: None,
         })
     }
