@@ -122,6 +122,11 @@ struct PreludeWatch {
     steps_here: std::cell::Cell<usize>,
     saved: Vec<String>,
     surface: Option<xpflow::observe::UndisturbedSurface>,
+    /// The finished prelude offered to the case (as another case with its key shared it).
+    offer: Option<String>,
+    /// The keys the case asked for, and what it shared.
+    asked: Vec<String>,
+    shared: Vec<(String, String)>,
 }
 
 impl xpflow::observe::CaseObserver for PreludeWatch {
@@ -148,6 +153,13 @@ impl xpflow::observe::CaseObserver for PreludeWatch {
     }
     fn resume_prelude(&mut self) -> Option<String> {
         self.resume.take()
+    }
+    fn shared_prelude(&mut self, key: &str) -> Option<String> {
+        self.asked.push(key.to_string());
+        self.offer.clone()
+    }
+    fn share_prelude(&mut self, key: &str, finished: &str) {
+        self.shared.push((key.to_string(), finished.to_string()));
     }
 }
 
@@ -241,4 +253,46 @@ fn a_case_may_skip_the_undisturbed_surface() {
         err.to_string().contains("output.undisturbed_surface"),
         "{err}"
     );
+}
+
+/// Cases that differ only in their particles have the same undisturbed flow: the first shares its
+/// finished prelude under the flow's key, and a case of that key takes it instead of stepping its
+/// own (the same surface, no prelude step); a case of another fluid has another key.
+#[test]
+fn cases_with_the_same_undisturbed_flow_share_one_prelude() {
+    use xpflow::simulate::undisturbed::prelude_key;
+    let mut case = coarse_case();
+    case.numerics.mesh = [35, 10];
+    let first = CaseSpec::from_value(serde_json::to_value(&case).unwrap()).unwrap();
+    case.particles.as_mut().unwrap().radius = 0.15;
+    case.particles.as_mut().unwrap().layout = xpflow::config::Layout::Explicit {
+        positions: vec![[-2.0, 0.5]],
+    };
+    case.numerics.t_end = 2.0;
+    let second = CaseSpec::from_value(serde_json::to_value(&case).unwrap()).unwrap();
+    case.fluid.wi = 0.3;
+    let other_fluid = CaseSpec::from_value(serde_json::to_value(&case).unwrap()).unwrap();
+    assert_eq!(prelude_key(&first), prelude_key(&second));
+    assert_ne!(prelude_key(&first), prelude_key(&other_fluid));
+
+    let mut computed = PreludeWatch::default();
+    xpflow::simulate::run::run_case(&first, &mut computed);
+    let want = computed.surface.clone().expect("the surface is reported");
+    assert!(computed.steps_here.get() > 0);
+    assert_eq!(computed.asked, vec![prelude_key(&first)]);
+    let [(key, finished)] = computed.shared.as_slice() else {
+        panic!("one prelude shared: {:?}", computed.shared.len())
+    };
+    assert_eq!(key, &prelude_key(&first));
+
+    let mut taken = PreludeWatch {
+        offer: Some(finished.clone()),
+        ..PreludeWatch::default()
+    };
+    xpflow::simulate::run::run_case(&second, &mut taken);
+    let got = taken.surface.expect("the surface is reported");
+    assert_eq!(taken.steps_here.get(), 0, "no prelude step of its own");
+    assert!(taken.shared.is_empty());
+    assert_eq!((got.steps, got.steady), (want.steps, want.steady));
+    assert_eq!(got.profile, want.profile);
 }

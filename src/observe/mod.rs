@@ -165,6 +165,15 @@ pub trait CaseObserver {
     fn resume_prelude(&mut self) -> Option<String> {
         None
     }
+    /// The finished prelude of another case with the same undisturbed flow (`key`: see
+    /// [`crate::simulate::undisturbed::prelude_key`]), as [`CaseObserver::share_prelude`] got
+    /// it: the case takes it instead of stepping its own.
+    fn shared_prelude(&mut self, _key: &str) -> Option<String> {
+        None
+    }
+    /// A finished prelude (JSON, opaque to the observer) for the cases of the same `key` that
+    /// come later.
+    fn share_prelude(&mut self, _key: &str, _finished: &str) {}
 }
 
 /// An extrusion's undisturbed steady free surface H̄ (the case without its particles).

@@ -206,6 +206,12 @@ impl Simulation {
         }
     }
 
+    /// What identifies the case's prelude (see [`undisturbed::prelude_key`]): cases of one key
+    /// have the same undisturbed surface. `None` without a prelude.
+    pub fn prelude_key(&self) -> Option<String> {
+        self.unsettled.as_ref().map(undisturbed::prelude_key)
+    }
+
     /// Takes the undisturbed surface a [`prelude`](Self::prelude) reached.
     pub fn settle_with(&mut self, undisturbed: Undisturbed) {
         self.unsettled = None;

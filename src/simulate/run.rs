@@ -3,7 +3,7 @@
 //! are ends of the physics, a non-finite state is divergence, a failed solve is a failure that
 //! keeps its step and phase.
 
-use super::{SetupError, Simulation};
+use super::{SetupError, Simulation, Undisturbed};
 use crate::config::CaseSpec;
 use crate::observe::{CaseObserver, Control, UndisturbedSurface};
 use crate::solver::flow::FlowSolverStats;
@@ -140,12 +140,24 @@ pub fn run_case(case: &CaseSpec, obs: &mut dyn CaseObserver) -> CaseResult {
 
 /// Steps the case's prelude (an extrusion's undisturbed flow) to its end, continuing from the
 /// observer's saved prelude state if it has one (one that does not fit starts it over) and
-/// handing it its state when due. An error comes with the prelude's completed steps and time.
+/// handing it its state when due — unless the observer has the finished prelude of a case with
+/// the same undisturbed flow, which it then takes; a prelude it finishes it shares. An error
+/// comes with the prelude's completed steps and time.
 fn settle(sim: &mut Simulation, obs: &mut dyn CaseObserver) -> Result<(), (MovingError, u64, f64)> {
     let at_start = |e| (e, 0, 0.0);
     let Some(mut prelude) = sim.prelude().map_err(at_start)? else {
         return Ok(());
     };
+    // another case with the same undisturbed flow may have computed it already
+    let key = sim.prelude_key();
+    let shared = key
+        .as_deref()
+        .and_then(|k| obs.shared_prelude(k))
+        .and_then(|json| serde_json::from_str::<Undisturbed>(&json).ok());
+    if let Some(undisturbed) = shared {
+        sim.settle_with(undisturbed);
+        return Ok(());
+    }
     if let Some(saved) = obs.resume_prelude() {
         if prelude.restore(&saved).is_err() {
             // (a restore that failed half-way leaves a flow of neither state)
@@ -162,7 +174,11 @@ fn settle(sim: &mut Simulation, obs: &mut dyn CaseObserver) -> Result<(), (Movin
             obs.save_prelude(&prelude.checkpoint());
         }
     }
-    sim.settle_with(prelude.finish());
+    let undisturbed = prelude.finish();
+    if let (Some(k), Ok(json)) = (key, serde_json::to_string(&undisturbed)) {
+        obs.share_prelude(&k, &json);
+    }
+    sim.settle_with(undisturbed);
     Ok(())
 }
 

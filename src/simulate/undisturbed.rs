@@ -150,6 +150,23 @@ impl UndisturbedFlow {
     }
 }
 
+/// What the undisturbed flow of an extrusion `case` depends on, as a key: the id of the case
+/// without its particles, its end time and what it records (the prelude runs to the steady test
+/// or [`UNDISTURBED_T_MAX`], whatever `t_end`; its mesh, fluid, time step and numerics stay).
+/// Cases of one sweep that differ only in their particles — the radius, the initial position —
+/// share one prelude.
+pub fn prelude_key(case: &CaseSpec) -> String {
+    let mut undisturbed = case.clone();
+    undisturbed.particles = None;
+    undisturbed.numerics.t_end = 0.0;
+    undisturbed.output = Default::default();
+    undisturbed.stop = Default::default();
+    format!(
+        "undisturbed-{}",
+        crate::sweep::expand::case_id(&undisturbed)
+    )
+}
+
 /// The undisturbed steady surface of an extrusion `case` (`None` for other geometries), in one
 /// go ([`UndisturbedFlow`] to its end).
 ///

@@ -289,6 +289,26 @@ impl CaseObserver for Recorder<'_> {
         ));
         Some(saved.state.get().to_string())
     }
+
+    fn shared_prelude(&mut self, key: &str) -> Option<String> {
+        let path = shared_prelude_path(self.db, key);
+        let text = std::fs::read_to_string(&path).ok()?;
+        self.progress.log(&format!(
+            "{} ({}): the undisturbed surface of an earlier case with the same flow ({})",
+            self.spec_label(),
+            self.hash,
+            path.display()
+        ));
+        Some(text)
+    }
+
+    fn share_prelude(&mut self, key: &str, finished: &str) {
+        if let Err(e) = write_atomically(&shared_prelude_path(self.db, key), finished) {
+            // (the case goes on: the next case of this flow computes its own)
+            self.progress
+                .log(&format!("cannot share the undisturbed surface: {e}"));
+        }
+    }
 }
 
 impl Recorder<'_> {
@@ -358,6 +378,12 @@ impl PreludeFile {
 /// `<db dir>/<db stem>/<hash>.prelude.resume.json` (published with the saved states of a shard).
 pub fn prelude_path(db: &std::path::Path, hash: &str) -> PathBuf {
     resume_path(db, hash).with_file_name(format!("{hash}.prelude.resume.json"))
+}
+
+/// Where the finished prelude of the cases of `key` (an extrusion's undisturbed surface, see
+/// [`crate::simulate::undisturbed::prelude_key`]) is shared: `<db dir>/<db stem>/<key>.json`.
+pub fn shared_prelude_path(db: &std::path::Path, key: &str) -> PathBuf {
+    states_dir(db).join(format!("{key}.json"))
 }
 
 /// Where a case that failed or diverged keeps its last saved state, for a diagnosis or a resume
