@@ -6,15 +6,18 @@
 //! the sweep's database (seconds per element and step, every rejected step and resumption
 //! included) when there is one, else the benchmark of docs/performance.md. The steps are an upper
 //! bound: a fixed step's t_end/Δt and an adaptive step's t_end over its *initial* Δt, with no early
-//! stop (an adaptive case took 3.9–4.2× fewer steps on the reference set, docs/validation.md).
+//! stop (an adaptive case took 3.9–4.2× fewer steps on the reference set, docs/validation.md),
+//! and for an extrusion its undisturbed prelude to t = 40, counted for the first case of each
+//! undisturbed flow only (the others take it: `simulate::undisturbed::prelude_key`).
 
 use std::collections::BTreeMap;
 use std::io::Write;
 use std::path::Path;
 
 use crate::config::{CaseSpec, PlannedCase};
+use crate::simulate::undisturbed::{prelude_key, UNDISTURBED_T_MAX};
 use crate::store::{Format, Store, Table};
-use crate::sweep::slurm::estimate::{case_seconds, finished_cases, Rate};
+use crate::sweep::slurm::estimate::{finished_cases, prelude_steps, steps_seconds, Rate};
 
 /// What the database already knows: each case's status and the finished cases' timings.
 struct Known {
@@ -64,8 +67,15 @@ pub(super) fn print_estimate(
         rows: Vec::new(),
     };
     let (mut total, mut left) = (0.0, 0.0);
+    // an extrusion's undisturbed prelude is stepped once per undisturbed flow (the others take it)
+    let mut preludes = std::collections::BTreeSet::new();
     for c in cases {
-        let hours = case_seconds(&c.spec, &rate) / 3600.0;
+        let prelude = match c.spec.extrusion() {
+            Some(_) if preludes.insert(prelude_key(&c.spec)) => prelude_steps(&c.spec),
+            _ => 0.0,
+        };
+        let steps = c.spec.steps() + prelude;
+        let hours = steps_seconds(&c.spec, steps, &rate) / 3600.0;
         let status = known
             .status
             .get(&c.id)
@@ -80,7 +90,7 @@ pub(super) fn print_estimate(
             c.id.clone().into(),
             c.label.clone().into(),
             (c.spec.mesh_elements() as i64).into(),
-            (c.spec.steps() as i64).into(),
+            (steps as i64).into(),
             c.spec.step_cost().into(),
             format!("{hours:.2}").into(),
             status.into(),
@@ -91,7 +101,8 @@ pub(super) fn print_estimate(
     writeln!(
         out,
         "estimate: at most {total:.1} core-hours for {} cases, {left:.1} of them not done yet \
-         (steps without early stop, adaptive steps at their initial Δt)",
+         (steps without early stop, adaptive steps at their initial Δt; an extrusion's \
+         undisturbed prelude to t = {UNDISTURBED_T_MAX} once per undisturbed flow)",
         cases.len()
     )?;
     Ok(())
@@ -144,5 +155,55 @@ mod tests {
         );
         assert!(text.contains("not run"), "{text}");
         assert!(!db.exists(), "an estimate never creates the database");
+    }
+
+    /// An extrusion case counts its undisturbed prelude (to t = 40 at its Δt) once per
+    /// undisturbed flow: a second case differing only in its particle adds its own steps, a case
+    /// that skips the prelude none.
+    #[test]
+    fn an_extrusion_counts_its_prelude_once_per_undisturbed_flow() {
+        let extrusion = |index: usize, radius: f64, undisturbed: bool| {
+            let spec = CaseSpec::from_value(serde_json::json!({
+                "geometry": {"extrusion": {"die_length": 3.0, "extrudate_length": 4.0}},
+                "fluid": {"model": "giesekus", "wi": 0.3, "alpha": 0.1},
+                "particles": {"radius": radius, "layout": {"explicit": {"positions": [[-2.3, 0.8]]}}},
+                "numerics": {"mesh": [70, 20], "dt": 0.05, "t_end": 5.0},
+                "output": {"undisturbed_surface": undisturbed}
+            }))
+            .unwrap();
+            PlannedCase {
+                index,
+                id: format!("case{index}"),
+                label: format!("c{index}"),
+                spec,
+                params: Vec::new(),
+            }
+        };
+        let cases = [
+            extrusion(0, 0.1, true),
+            extrusion(1, 0.15, true),
+            extrusion(2, 0.1, false),
+        ];
+        let db = std::env::temp_dir().join(format!("xpflow-estimate-x-{}.db", std::process::id()));
+        let mut out = Vec::new();
+        print_estimate(&cases, &db, &mut out).unwrap();
+        let text = String::from_utf8(out).unwrap();
+        // 100 steps to t_end each, and 800 prelude steps (t = 40 at Δt 0.05) once
+        let elements = 70.0 * 20.0 * cases[0].spec.step_cost();
+        let expect = (3.0 * 100.0 + 800.0) * elements * BENCHMARK_SECONDS_PER_ELEMENT_STEP / 3600.0;
+        assert!(
+            text.contains(&format!("at most {expect:.1} core-hours for 3 cases")),
+            "{text}"
+        );
+        let steps: Vec<&str> = text
+            .lines()
+            .filter(|l| {
+                l.split_whitespace()
+                    .nth(1)
+                    .is_some_and(|id| id.starts_with("case"))
+            })
+            .map(|l| l.split_whitespace().nth(4).unwrap_or(""))
+            .collect();
+        assert_eq!(steps, ["900", "100", "100"], "{text}");
     }
 }

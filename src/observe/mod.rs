@@ -187,4 +187,8 @@ pub struct UndisturbedSurface {
     pub steps: usize,
     /// Whether it met the steady test (else: the surface at the time limit).
     pub steady: bool,
+    /// Whether the case took it from an earlier case of the same undisturbed flow (its `steps`
+    /// are that case's, not this one's work).
+    #[serde(default)]
+    pub shared: bool,
 }

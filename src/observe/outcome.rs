@@ -511,6 +511,7 @@ impl Classifier {
                 "swell": u.swell,
                 "steps": u.steps,
                 "steady": u.steady,
+                "shared": u.shared,
             });
         }
         if ps.iter().any(|p| p.separation.is_some()) {

@@ -93,6 +93,7 @@ pub fn run_case(case: &CaseSpec, obs: &mut dyn CaseObserver) -> CaseResult {
                 swell: u.swell(),
                 steps: u.steps,
                 steady: u.steady,
+                shared: u.shared,
             });
         }
         if obs.snapshot_due(0) {
@@ -155,7 +156,10 @@ fn settle(sim: &mut Simulation, obs: &mut dyn CaseObserver) -> Result<(), (Movin
         .and_then(|k| obs.shared_prelude(k))
         .and_then(|json| serde_json::from_str::<Undisturbed>(&json).ok());
     if let Some(undisturbed) = shared {
-        sim.settle_with(undisturbed);
+        sim.settle_with(Undisturbed {
+            shared: true,
+            ..undisturbed
+        });
         return Ok(());
     }
     if let Some(saved) = obs.resume_prelude() {

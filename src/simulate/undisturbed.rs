@@ -24,6 +24,9 @@ pub struct Undisturbed {
     pub steps: usize,
     /// Whether the steady test was met (otherwise the surface at [`UNDISTURBED_T_MAX`]).
     pub steady: bool,
+    /// Taken from an earlier case of the same undisturbed flow rather than stepped by this one.
+    #[serde(default, skip_serializing_if = "std::ops::Not::not")]
+    pub shared: bool,
 }
 
 impl Undisturbed {
@@ -146,6 +149,7 @@ impl UndisturbedFlow {
                 .expect("an extrusion has a surface")
                 .clone(),
             steps: self.steps,
+            shared: false,
         }
     }
 }

@@ -563,14 +563,20 @@ impl Store {
     }
 
     /// The finished cases that took steps: their case JSON (`params_json`), wall-clock seconds
-    /// and steps, for a measured cost per step.
+    /// and steps (with an extrusion's undisturbed prelude when the case stepped it itself: its
+    /// wall time holds them), for a measured cost per step.
     pub fn finished_timings(&self) -> Result<Vec<(String, f64, u64)>> {
         let err = self.sql_err();
         let mut st = self
             .conn
             .prepare(
-                "SELECT params_json, wall_s, steps FROM cases
-                 WHERE status = 'done' AND steps > 0 AND wall_s > 0 ORDER BY id",
+                "SELECT c.params_json, c.wall_s,
+                        c.steps + COALESCE(CASE WHEN json_extract(o.final_json,
+                                                 '$.undisturbed_surface.shared') THEN 0
+                                  ELSE json_extract(o.final_json, '$.undisturbed_surface.steps')
+                                  END, 0)
+                 FROM cases c LEFT JOIN outcomes o ON o.case_id = c.id
+                 WHERE c.status = 'done' AND c.steps > 0 AND c.wall_s > 0 ORDER BY c.id",
             )
             .map_err(&err)?;
         let rows = st

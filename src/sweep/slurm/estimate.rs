@@ -98,9 +98,26 @@ pub fn memory_mb(cases: &[&PlannedCase]) -> u64 {
 }
 
 /// Core-seconds a case needs at most: its steps (at the initial Δt of an adaptive step, all of
-/// them even with an early stop) × elements × step cost × `rate`.
+/// them even with an early stop, and an extrusion's undisturbed prelude: [`prelude_steps`]) ×
+/// elements × step cost × `rate`.
 pub fn case_seconds(spec: &CaseSpec, rate: &Rate) -> f64 {
-    spec.steps() * spec.mesh_elements() * spec.step_cost() * rate.seconds()
+    steps_seconds(spec, spec.steps() + prelude_steps(spec), rate)
+}
+
+/// Core-seconds of `steps` steps of case `spec` at `rate`.
+pub fn steps_seconds(spec: &CaseSpec, steps: f64, rate: &Rate) -> f64 {
+    steps * spec.mesh_elements() * spec.step_cost() * rate.seconds()
+}
+
+/// The steps of an extrusion's undisturbed prelude at most (to
+/// [`UNDISTURBED_T_MAX`](crate::simulate::undisturbed::UNDISTURBED_T_MAX) at the case's initial
+/// Δt; the steady test usually ends it sooner); 0 for other cases and for those that skip it
+/// (`output.undisturbed_surface = false`).
+pub fn prelude_steps(spec: &CaseSpec) -> f64 {
+    if spec.extrusion().is_none() || !spec.output.undisturbed_surface {
+        return 0.0;
+    }
+    (crate::simulate::undisturbed::UNDISTURBED_T_MAX / spec.numerics.dt.initial()).ceil()
 }
 
 /// Wall-clock seconds the longest case may need: [`case_seconds`] with a margin and a fixed
