@@ -57,7 +57,9 @@ save)
 	python3 -c 'import sqlite3, sys; c = sqlite3.connect(sys.argv[1]); c.execute("UPDATE cases SET status = '"'"'pending'"'"', owner = NULL, owner_pid = NULL WHERE status = '"'"'running'"'"'"); c.commit()' \
 		"$tmp/pack/$name.db"
 	if [ -d "$states" ]; then
-		find "$states" -maxdepth 1 -name '*.resume.json' -exec cp {} "$tmp/pack/$name/" \;
+		# (and the finished undisturbed preludes its extrusion cases share)
+		find "$states" -maxdepth 1 \( -name '*.resume.json' -o -name 'undisturbed-*.json' \) \
+			-exec cp {} "$tmp/pack/$name/" \;
 	fi
 	tar -C "$tmp/pack" -cJf "$pack" "$name.db" "$name"
 	echo "saved: $pack ($(du -h "$pack" | cut -f1);" \
