@@ -114,13 +114,19 @@ mod tests {
     use crate::sweep::slurm::estimate::BENCHMARK_SECONDS_PER_ELEMENT_STEP;
 
     fn planned(index: usize, mesh: [usize; 2], dt: serde_json::Value) -> PlannedCase {
-        let spec = CaseSpec::from_value(serde_json::json!({
-            "geometry": {"confined_shear": {"h": 1.0, "l": 4.0}},
-            "fluid": {"model": "giesekus", "wi": 1.0, "alpha": 0.01, "beta": 0.1},
-            "particles": {"radius": 0.1, "layout": {"string": {"n": 2, "lx": 0.5, "ly": 0.1}}},
-            "numerics": {"mesh": mesh, "dt": dt, "t_end": 20.0}
-        }))
-        .unwrap();
+        planned_case(
+            index,
+            serde_json::json!({
+                "geometry": {"confined_shear": {"h": 1.0, "l": 4.0}},
+                "fluid": {"model": "giesekus", "wi": 1.0, "alpha": 0.01, "beta": 0.1},
+                "particles": {"radius": 0.1, "layout": {"string": {"n": 2, "lx": 0.5, "ly": 0.1}}},
+                "numerics": {"mesh": mesh, "dt": dt, "t_end": 20.0}
+            }),
+        )
+    }
+
+    fn planned_case(index: usize, case: serde_json::Value) -> PlannedCase {
+        let spec = CaseSpec::from_value(case).unwrap();
         PlannedCase {
             index,
             id: format!("case{index}"),
@@ -163,21 +169,16 @@ mod tests {
     #[test]
     fn an_extrusion_counts_its_prelude_once_per_undisturbed_flow() {
         let extrusion = |index: usize, radius: f64, undisturbed: bool| {
-            let spec = CaseSpec::from_value(serde_json::json!({
-                "geometry": {"extrusion": {"die_length": 3.0, "extrudate_length": 4.0}},
-                "fluid": {"model": "giesekus", "wi": 0.3, "alpha": 0.1},
-                "particles": {"radius": radius, "layout": {"explicit": {"positions": [[-2.3, 0.8]]}}},
-                "numerics": {"mesh": [70, 20], "dt": 0.05, "t_end": 5.0},
-                "output": {"undisturbed_surface": undisturbed}
-            }))
-            .unwrap();
-            PlannedCase {
+            planned_case(
                 index,
-                id: format!("case{index}"),
-                label: format!("c{index}"),
-                spec,
-                params: Vec::new(),
-            }
+                serde_json::json!({
+                    "geometry": {"extrusion": {"die_length": 3.0, "extrudate_length": 4.0}},
+                    "fluid": {"model": "giesekus", "wi": 0.3, "alpha": 0.1},
+                    "particles": {"radius": radius, "layout": {"explicit": {"positions": [[-2.3, 0.8]]}}},
+                    "numerics": {"mesh": [70, 20], "dt": 0.05, "t_end": 5.0},
+                    "output": {"undisturbed_surface": undisturbed}
+                }),
+            )
         };
         let cases = [
             extrusion(0, 0.1, true),

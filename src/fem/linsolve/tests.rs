@@ -116,18 +116,7 @@ fn a_slow_symmetric_part_is_timed_against_an_lu_and_either_way_solves() {
     // tridiag(−1 − k, 4, −1 + k) with k = 1 on 40 unknowns: symmetric part tridiag(−1, 4, −1)
     // (k = 2 and more: GMRES misses the tolerance in 30 iterations and the solver takes the LU)
     let n = 40;
-    let mut pb = PatternBuilder::new(n);
-    for i in 0..n - 1 {
-        pb.add_group(&[i, i + 1]);
-    }
-    let mut a = pb.build();
-    for i in 0..n {
-        a.add(i, i, 4.0);
-        if i + 1 < n {
-            a.add(i, i + 1, -1.0 + 1.0);
-            a.add(i + 1, i, -1.0 - 1.0);
-        }
-    }
+    let a = slow_tridiagonal(n);
     let order: Vec<usize> = (0..n).collect();
     let b: Vec<f64> = (0..n).map(|i| (i as f64).cos() + 0.5).collect();
     let mut lu = DirectSolver::analyze(&a, SolverKind::Lu).unwrap();
@@ -156,7 +145,7 @@ fn a_slow_symmetric_part_is_timed_against_an_lu_and_either_way_solves() {
     assert!(s.lu_fallbacks() <= 1);
 }
 
-/// The slow system of the test above on `n` unknowns: tridiag(−2, 4, 0).
+/// The slow system of the probe tests on `n` unknowns: tridiag(−2, 4, 0).
 fn slow_tridiagonal(n: usize) -> SparseMatrix {
     let mut pb = PatternBuilder::new(n);
     for i in 0..n - 1 {
