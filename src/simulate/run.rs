@@ -237,6 +237,14 @@ fn ended_in_prelude(e: MovingError, steps: u64, t: f64) -> CaseResult {
 fn diverged(e: &MovingError) -> bool {
     use crate::solver::ale::AleError;
     use crate::solver::constitutive::ConstitutiveError;
+    // a flow system whose solve gives a NaN residual holds non-finite entries: the state blew up
+    if let MovingError::Flow(ViscoelasticError::Flow {
+        source: crate::fem::linsolve::SolveError::Inaccurate { residual },
+        ..
+    }) = e
+    {
+        return residual.is_nan();
+    }
     matches!(
         e,
         MovingError::NonFinite { .. }
@@ -257,8 +265,9 @@ mod tests {
     use crate::fem::linsolve::SolveError;
     use crate::solver::constitutive::ConstitutiveError;
 
-    /// Non-finite states are divergence (physics); a failed solve is a failure that names its
-    /// step, phase and residual.
+    /// Non-finite states are divergence (physics), and so is a flow solve whose residual is NaN
+    /// (its system holds them); a failed solve is a failure that names its step, phase and
+    /// residual.
     #[test]
     fn a_failed_solve_is_a_failure_and_a_non_finite_state_divergence() {
         let blown = ended_by(MovingError::NonFinite { step: 8 }, 7, 0.7);
@@ -287,6 +296,15 @@ mod tests {
             }
             s => panic!("a failed solve is not physics: {s:?}"),
         }
+        // a NaN residual: the system itself is no longer finite (a blown-up state)
+        let nan = MovingError::Flow(ViscoelasticError::Flow {
+            step: 99,
+            source: SolveError::Inaccurate { residual: f64::NAN },
+        });
+        assert!(matches!(
+            ended_by(nan, 98, 1.47).status,
+            RunStatus::Diverged { .. }
+        ));
     }
 
     /// An error in an extrusion's prelude names the prelude, its step and time, not step 1 of
@@ -308,5 +326,14 @@ mod tests {
             }
             s => panic!("a failed solve is not physics: {s:?}"),
         }
+        // a NaN residual: the system itself is no longer finite (a blown-up state)
+        let nan = MovingError::Flow(ViscoelasticError::Flow {
+            step: 99,
+            source: SolveError::Inaccurate { residual: f64::NAN },
+        });
+        assert!(matches!(
+            ended_by(nan, 98, 1.47).status,
+            RunStatus::Diverged { .. }
+        ));
     }
 }
