@@ -107,7 +107,7 @@ pub fn run_case(case: &CaseSpec, obs: &mut dyn CaseObserver) -> CaseResult {
         let contact = match sim.step() {
             Err(e) => {
                 // a failed solve from touching particles is their contact, not a fault
-                if let Some(c) = sim.touching().filter(|_| !diverged(&e)) {
+                if let Some(c) = sim.touching().filter(|_| !non_finite_state(&e)) {
                     let error = format!("step {}, {}: {e}", sim.steps() + 1, e.phase());
                     obs.on_contact_at_failure(&c, sim.time(), &error);
                     return finished(&sim);
@@ -232,19 +232,25 @@ fn ended_in_prelude(e: MovingError, steps: u64, t: f64) -> CaseResult {
     result
 }
 
-/// Whether an error is a non-finite state of the physics (particle velocities, the
-/// log-conformation, the mesh displacement) rather than a failure of the numerics.
+/// Whether an error is a blown-up state (a non-finite state, or a flow system with non-finite
+/// entries) rather than a failure of the numerics.
 fn diverged(e: &MovingError) -> bool {
+    // a flow system whose solve gives a NaN residual holds non-finite entries: the state blew up
+    // (with touching particles the runner takes it for their contact first)
+    let nan_residual = matches!(
+        e,
+        MovingError::Flow(ViscoelasticError::Flow {
+            source: crate::fem::linsolve::SolveError::Inaccurate { residual },
+            ..
+        }) if residual.is_nan()
+    );
+    nan_residual || non_finite_state(e)
+}
+
+/// Whether the error is a non-finite state (particles, mesh map or stress).
+fn non_finite_state(e: &MovingError) -> bool {
     use crate::solver::ale::AleError;
     use crate::solver::constitutive::ConstitutiveError;
-    // a flow system whose solve gives a NaN residual holds non-finite entries: the state blew up
-    if let MovingError::Flow(ViscoelasticError::Flow {
-        source: crate::fem::linsolve::SolveError::Inaccurate { residual },
-        ..
-    }) = e
-    {
-        return residual.is_nan();
-    }
     matches!(
         e,
         MovingError::NonFinite { .. }
