@@ -169,26 +169,22 @@ pub(super) fn validate_particles(
             };
             let explicit = study == Study::ExplicitCoupling;
             let h = hs.first().copied().unwrap_or(0.25);
-            for coupled_g in [false, true] {
-                let (stress, fluid, g) = match (explicit, coupled_g) {
-                    (true, _) => (
-                        CylinderStress::Explicit { coupled_g },
-                        "η_s = 0.1, explicit coupling",
-                        if coupled_g {
-                            "coupled G"
-                        } else {
-                            "lagged Gⁿ"
-                        },
-                    ),
-                    (false, _) => (
-                        CylinderStress::Thesis { coupled_g },
-                        "η_s = 0, semi-implicit coupling",
-                        if coupled_g {
-                            "coupled G (semi_implicit_coupled_g)"
-                        } else {
-                            "lagged Gⁿ (semi_implicit, auto at β = 0)"
-                        },
-                    ),
+            let (fluid, labels) = if explicit {
+                ("η_s = 0.1, explicit coupling", ["lagged Gⁿ", "coupled G"])
+            } else {
+                (
+                    "η_s = 0, semi-implicit coupling",
+                    [
+                        "lagged Gⁿ (semi_implicit, auto at β = 0)",
+                        "coupled G (semi_implicit_coupled_g)",
+                    ],
+                )
+            };
+            for (coupled_g, g) in [false, true].into_iter().zip(labels) {
+                let stress = if explicit {
+                    CylinderStress::Explicit { coupled_g }
+                } else {
+                    CylinderStress::Thesis { coupled_g }
                 };
                 let s = translating_cylinder_convergence(
                     h,

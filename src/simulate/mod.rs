@@ -207,9 +207,13 @@ impl Simulation {
     }
 
     /// What identifies the case's prelude (see [`undisturbed::prelude_key`]): cases of one key
-    /// have the same undisturbed surface. `None` without a prelude.
+    /// have the same undisturbed surface. `None` without a prelude to run (none, or its surface
+    /// known already, as after a restore).
     pub fn prelude_key(&self) -> Option<String> {
-        self.unsettled.as_ref().map(undisturbed::prelude_key)
+        self.unsettled
+            .as_ref()
+            .filter(|_| self.undisturbed.is_none())
+            .map(undisturbed::prelude_key)
     }
 
     /// Takes the undisturbed surface a [`prelude`](Self::prelude) reached.

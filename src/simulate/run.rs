@@ -146,14 +146,13 @@ pub fn run_case(case: &CaseSpec, obs: &mut dyn CaseObserver) -> CaseResult {
 /// comes with the prelude's completed steps and time.
 fn settle(sim: &mut Simulation, obs: &mut dyn CaseObserver) -> Result<(), (MovingError, u64, f64)> {
     let at_start = |e| (e, 0, 0.0);
-    let Some(mut prelude) = sim.prelude().map_err(at_start)? else {
+    let Some(key) = sim.prelude_key() else {
         return Ok(());
     };
-    // another case with the same undisturbed flow may have computed it already
-    let key = sim.prelude_key();
-    let shared = key
-        .as_deref()
-        .and_then(|k| obs.shared_prelude(k))
+    // another case with the same undisturbed flow may have computed it already (asked before
+    // the prelude's flow is built: its set-up solves the flow once)
+    let shared = obs
+        .shared_prelude(&key)
         .and_then(|json| serde_json::from_str::<Undisturbed>(&json).ok());
     if let Some(undisturbed) = shared {
         sim.settle_with(Undisturbed {
@@ -162,6 +161,9 @@ fn settle(sim: &mut Simulation, obs: &mut dyn CaseObserver) -> Result<(), (Movin
         });
         return Ok(());
     }
+    let Some(mut prelude) = sim.prelude().map_err(at_start)? else {
+        return Ok(());
+    };
     if let Some(saved) = obs.resume_prelude() {
         if prelude.restore(&saved).is_err() {
             // (a restore that failed half-way leaves a flow of neither state)
@@ -179,8 +181,8 @@ fn settle(sim: &mut Simulation, obs: &mut dyn CaseObserver) -> Result<(), (Movin
         }
     }
     let undisturbed = prelude.finish();
-    if let (Some(k), Ok(json)) = (key, serde_json::to_string(&undisturbed)) {
-        obs.share_prelude(&k, &json);
+    if let Ok(json) = serde_json::to_string(&undisturbed) {
+        obs.share_prelude(&key, &json);
     }
     sim.settle_with(undisturbed);
     Ok(())
@@ -237,14 +239,11 @@ fn ended_in_prelude(e: MovingError, steps: u64, t: f64) -> CaseResult {
 fn diverged(e: &MovingError) -> bool {
     // a flow system whose solve gives a NaN residual holds non-finite entries: the state blew up
     // (with touching particles the runner takes it for their contact first)
-    let nan_residual = matches!(
+    let non_finite_system = matches!(
         e,
-        MovingError::Flow(ViscoelasticError::Flow {
-            source: crate::fem::linsolve::SolveError::Inaccurate { residual },
-            ..
-        }) if residual.is_nan()
+        MovingError::Flow(ViscoelasticError::Flow { source, .. }) if source.non_finite()
     );
-    nan_residual || non_finite_state(e)
+    non_finite_system || non_finite_state(e)
 }
 
 /// Whether the error is a non-finite state (particles, mesh map or stress).

@@ -69,6 +69,14 @@ pub enum SolveError {
     NotFactored,
 }
 
+impl SolveError {
+    /// Whether the system itself was not finite: a NaN residual (b − Ax with a finite A, b and a
+    /// finite or zeroed x is finite), as a caller's blown-up state gives.
+    pub fn non_finite(&self) -> bool {
+        matches!(self, SolveError::Inaccurate { residual } if residual.is_nan())
+    }
+}
+
 enum Backend {
     Lblt {
         symbolic: SymbolicCholesky<usize>,
