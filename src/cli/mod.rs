@@ -11,6 +11,7 @@ mod extrudate;
 mod run;
 mod search_cmds;
 pub mod sweep_cmds;
+mod tries_cmds;
 mod validate;
 
 use std::process::ExitCode;

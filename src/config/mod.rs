@@ -21,6 +21,7 @@ mod search;
 mod sweep_file;
 mod text;
 mod time_step;
+mod tries;
 mod validate;
 
 pub use case::{
@@ -38,6 +39,7 @@ pub use search::{Change, SearchSpec};
 pub use sweep_file::{Axis, PlannedCase, SweepSpec};
 pub use text::parse as parse_text;
 pub use time_step::{AdaptiveStep, TimeStep};
+pub use tries::{TriesSpec, Until};
 pub use validate::{MAX_DT_OVER_LAMBDA, MAX_EXTRAPOLATED_DT_OVER_BETA_LAMBDA};
 
 #[cfg(test)]

@@ -15,8 +15,12 @@
 //! range = [0.0, 3.0]
 //! tol = 0.05
 //! budget = 40
+//! [tries]           # optional, instead of [search]: try one axis' values in order per
+//! over = "particles.layout.string.lx"   # combination of the others, until an outcome (`tries`)
+//! until = "string"
 //! ```
-//! Expansion into cases is in `sweep::expand`; a search's rounds in `sweep::search`.
+//! Expansion into cases is in `sweep::expand`; a search's rounds in `sweep::search`; the rounds of
+//! tries in `sweep::tries`.
 
 use std::path::{Path, PathBuf};
 
@@ -25,9 +29,18 @@ use serde_json::{Map, Value};
 use super::case::CaseSpec;
 use super::error::ConfigError;
 use super::search::SearchSpec;
+use super::tries::TriesSpec;
 
 /// Keys allowed at the top level of a sweep file.
-const TOP_LEVEL_KEYS: [&str; 6] = ["name", "description", "base", "axes", "zip", "search"];
+const TOP_LEVEL_KEYS: [&str; 7] = [
+    "name",
+    "description",
+    "base",
+    "axes",
+    "zip",
+    "search",
+    "tries",
+];
 
 /// Upper bound on values produced by one range, so that a mistyped step cannot exhaust memory.
 const MAX_RANGE_VALUES: usize = 100_000;
@@ -54,6 +67,9 @@ pub struct SweepSpec {
     /// The `[search]` section: one more axis refined where the outcome changes, for each
     /// combination of the axes and zips.
     pub search: Option<SearchSpec>,
+    /// The `[tries]` section: one axis (or zip) tried in order on each combination of the others
+    /// until a case ends in the wanted outcome.
+    pub tries: Option<TriesSpec>,
     /// The whole file as JSON, recorded in the store.
     pub raw: Value,
 }
@@ -208,6 +224,20 @@ impl SweepSpec {
                 Some(SearchSpec::from_value(v, file, &swept)?)
             }
         };
+        let tries =
+            match top.get("tries") {
+                None => None,
+                Some(_) if search.is_some() => return Err(err(
+                    "tries",
+                    "a sweep has [search] or [tries], not both (each plans its own rounds from \
+                     the outcomes): split it into two files"
+                        .into(),
+                )),
+                Some(v) => {
+                    let swept: Vec<&str> = all.iter().map(|a| a.path.as_str()).collect();
+                    Some(TriesSpec::from_value(v, file, &swept)?)
+                }
+            };
         Ok(SweepSpec {
             file: file.to_path_buf(),
             name,
@@ -216,6 +246,7 @@ impl SweepSpec {
             axes,
             zips,
             search,
+            tries,
             raw,
         })
     }

@@ -19,6 +19,7 @@ pub mod search;
 pub mod slurm;
 pub mod solver_runner;
 pub mod task;
+pub mod tries;
 
 pub use crate::config::PlannedCase;
 pub use engine::{run_sweep, SweepOptions, SweepSummary};

@@ -1,0 +1,111 @@
+//! `xpflow sweep FILE` for a sweep file with a `[tries]` section: a thin handler over
+//! `sweep::tries`, with the exit codes of the sweep commands (0 ok, 1 some case failed or a
+//! runtime error, 2 invalid input and nothing written).
+
+use std::io::Write;
+use std::process::ExitCode;
+
+use anyhow::Context;
+
+use super::sweep_cmds::{
+    invalid, list_cases, print_resolved, sweep_options, SweepArgs, EXIT_INVALID,
+};
+use crate::config::{PlannedCase, SweepSpec};
+use crate::sweep::engine::SweepError;
+use crate::sweep::tries::{lines, run_tries};
+use crate::sweep::CaseRunner;
+
+/// Runs (or resumes) the tries of `spec` over its grid `cases`, or lists the grid with
+/// `--dry-run` (with `--estimate`: the bound of every case run).
+pub(super) fn run(
+    args: &SweepArgs,
+    spec: &SweepSpec,
+    cases: &[PlannedCase],
+    runner: &dyn CaseRunner,
+    out: &mut dyn Write,
+) -> anyhow::Result<ExitCode> {
+    let Some(t) = &spec.tries else {
+        return invalid(&"the sweep has no [tries] section");
+    };
+    let lines = match lines(spec, cases) {
+        Ok(l) => l,
+        Err(e) => return invalid(&e),
+    };
+    let per_line = lines.iter().map(|l| l.tries.len()).max().unwrap_or(0);
+    if args.dry_run {
+        list_cases(cases, out)?;
+        writeln!(
+            out,
+            "{} cases in sweep {}: {} combination(s) of the other axes × {per_line} tries of {} \
+             in this order, each combination stopping at its first case that ends in {}: \
+             between {} and {} cases run",
+            cases.len(),
+            spec.name,
+            lines.len(),
+            t.over,
+            t.until.describe(),
+            lines.len(),
+            cases.len()
+        )?;
+        if args.resolved {
+            print_resolved(cases, out)?;
+        }
+        if args.estimate {
+            let db = sweep_options(args, spec).db;
+            super::estimate::print_estimate(cases, &db, out)?;
+            writeln!(
+                out,
+                "(the bound runs every try; a combination stops at its first {})",
+                t.until.describe()
+            )?;
+        }
+        return Ok(ExitCode::SUCCESS);
+    }
+    let opts = sweep_options(args, spec);
+    let mut log = |line: &str| {
+        if !args.quiet {
+            eprintln!("{line}");
+        }
+    };
+    match run_tries(spec, cases, &lines, runner, &opts, &mut log) {
+        Ok(r) => {
+            if !args.quiet {
+                writeln!(
+                    out,
+                    "tries {}: {} combination(s), {} ended in {} and {} did not; {} of the grid's \
+                     {} cases tried ({} run now in {} round(s), {} failed); results in {}",
+                    spec.name,
+                    r.lines,
+                    r.met,
+                    t.until.describe(),
+                    r.lines - r.met,
+                    r.tried,
+                    r.grid,
+                    r.ran,
+                    r.rounds,
+                    r.failed,
+                    opts.db.display()
+                )?;
+                if !r.finished {
+                    writeln!(
+                        out,
+                        "tries {}: not over: {} case(s) of the current round are being run by \
+                         another process; rerun when they have finished",
+                        spec.name, r.elsewhere
+                    )?;
+                }
+            }
+            Ok(if r.failed > 0 {
+                ExitCode::FAILURE
+            } else {
+                ExitCode::SUCCESS
+            })
+        }
+        Err(e @ (SweepError::Unsupported { .. } | SweepError::TooLarge { .. })) => {
+            eprintln!("error: {}: {e}; nothing more was run", args.file.display());
+            Ok(ExitCode::from(EXIT_INVALID))
+        }
+        Err(SweepError::Store(e)) if e.is_bad_input() => invalid(&e),
+        Err(e) => Err(e).context(format!("sweep {}", spec.name)),
+    }
+}

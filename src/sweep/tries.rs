@@ -1,0 +1,273 @@
+//! Sweeps with a `[tries]` section ([`crate::config::TriesSpec`]): the values of one axis (or the
+//! rows of one `[[zip]]`) are tried in order on every combination of the other axes (a *line*),
+//! and a line stops at the first case whose outcome meets `until` — a Table 5.2 cell is '+' once a
+//! string forms from one initial position, so its other positions need not run. A line none of
+//! whose cases meets it runs them all.
+//!
+//! The cases are the grid's (the same expansion, indices, labels and ids as without the section,
+//! so a database that ran the grid counts its cases), run in rounds: round k holds the first
+//! unfinished try of every line not yet met. Like a search (`sweep::search`), the state is
+//! rebuilt from the store before every round ([`replay`]), never kept in memory: a killed sweep
+//! continues with the round it was in, and no finished case runs again.
+
+use std::collections::HashMap;
+
+use serde_json::Value;
+
+use super::engine::{run_sweep, SweepError, SweepOptions};
+use super::expand::canonical_json;
+use super::runner::CaseRunner;
+use super::search::replay::Outcomes;
+use super::search::stored_outcomes;
+use crate::config::{ConfigError, PlannedCase, SweepSpec, TriesSpec, Until};
+use crate::observe::OutcomeKind;
+
+/// One combination of the other axes and its tries.
+#[derive(Debug, Clone, PartialEq)]
+pub struct TryLine {
+    /// Label of the combination (`base` without other axes).
+    pub label: String,
+    /// Indices (into the grid's cases) of its tries, in the order they are tried.
+    pub tries: Vec<usize>,
+    /// The try whose outcome met `until`, if one has.
+    pub met: Option<usize>,
+    /// The first try not finished yet (the one to run now), unless met or exhausted.
+    pub current: Option<usize>,
+}
+
+/// Where a sweep with tries stands.
+#[derive(Debug, Clone, PartialEq)]
+pub struct TriesState {
+    /// The lines, in the grid's order.
+    pub lines: Vec<TryLine>,
+}
+
+impl TriesState {
+    /// The cases of the current round: each line's current try, in grid order.
+    pub fn round(&self) -> Vec<usize> {
+        let mut r: Vec<usize> = self.lines.iter().filter_map(|l| l.current).collect();
+        r.sort_unstable();
+        r
+    }
+
+    /// Whether no line has a try left to run.
+    pub fn finished(&self) -> bool {
+        self.lines.iter().all(|l| l.current.is_none())
+    }
+}
+
+/// The tries of the grid `cases` of `sweep` grouped into lines: cases that agree in every swept
+/// field but the tried axis (or its zip group), each line in the tried values' order.
+///
+/// # Errors
+/// A `[tries]` whose `until` names no outcome kind (file, `tries.until`).
+pub fn lines(sweep: &SweepSpec, cases: &[PlannedCase]) -> Result<Vec<TryLine>, ConfigError> {
+    let Some(spec) = &sweep.tries else {
+        return Err(ConfigError::Sweep {
+            file: sweep.file.clone(),
+            field: "tries".into(),
+            message: "this sweep has no [tries] section".into(),
+        });
+    };
+    check_kind(sweep, spec)?;
+    let tried = tried_paths(sweep, spec);
+    let mut by_rest: HashMap<String, usize> = HashMap::new();
+    let mut lines: Vec<TryLine> = Vec::new();
+    for (index, case) in cases.iter().enumerate() {
+        let rest: Vec<&(String, Value)> = case
+            .params
+            .iter()
+            .filter(|(path, _)| !tried.contains(path))
+            .collect();
+        let key = canonical_json(&Value::Array(
+            rest.iter()
+                .map(|(p, v)| Value::Array(vec![Value::String(p.clone()), v.clone()]))
+                .collect(),
+        ));
+        let line = *by_rest.entry(key).or_insert_with(|| {
+            lines.push(TryLine {
+                label: label_without(&case.label, &tried),
+                tries: Vec::new(),
+                met: None,
+                current: None,
+            });
+            lines.len() - 1
+        });
+        lines[line].tries.push(index);
+    }
+    Ok(lines)
+}
+
+/// The state of the tries from the stored outcomes `lookup` returns for given case ids: on each
+/// line, a finished try that meets `until` ends it; a finished one that does not (or a failed
+/// one, unless `retry_failed`) passes to the next; the first unfinished one is the line's current.
+///
+/// # Errors
+/// Whatever `lookup` returns.
+pub fn replay<E>(
+    sweep: &SweepSpec,
+    cases: &[PlannedCase],
+    mut lines: Vec<TryLine>,
+    retry_failed: bool,
+    lookup: &mut dyn FnMut(&[&str]) -> Result<Outcomes, E>,
+) -> Result<TriesState, E> {
+    let ids: Vec<&str> = cases.iter().map(|c| c.id.as_str()).collect();
+    let stored = lookup(&ids)?;
+    let until = sweep.tries.as_ref().map(|t| &t.until);
+    for line in &mut lines {
+        line.met = None;
+        line.current = None;
+        for &i in &line.tries {
+            match stored.get(&cases[i].id) {
+                Some(o) if o.status == "done" => {
+                    let kind = o.kind.as_deref().unwrap_or_default();
+                    if until.is_some_and(|u| u.met_by(kind, o.string_length)) {
+                        line.met = Some(i);
+                        break;
+                    }
+                }
+                Some(o) if o.status == "failed" && !retry_failed => {}
+                _ => {
+                    line.current = Some(i);
+                    break;
+                }
+            }
+        }
+    }
+    Ok(TriesState { lines })
+}
+
+/// What a sweep with tries did.
+#[derive(Debug, Clone, Default, PartialEq)]
+pub struct TriesSummary {
+    /// Lines (combinations of the other axes).
+    pub lines: usize,
+    /// Lines whose tries met `until`.
+    pub met: usize,
+    /// Rounds this invocation ran.
+    pub rounds: usize,
+    /// Cases of the grid.
+    pub grid: usize,
+    /// Cases tried so far (finished, or running elsewhere).
+    pub tried: usize,
+    /// Cases run by this invocation.
+    pub ran: usize,
+    /// Of those, the ones that failed.
+    pub failed: usize,
+    /// Whether no line has a try left.
+    pub finished: bool,
+    /// Cases of the current round another process is running (the sweep stopped to wait).
+    pub elsewhere: usize,
+}
+
+/// Runs (or resumes) the tries of `sweep` over its grid `cases` grouped into `template` (from
+/// [`lines`]), round by round, until no line has a try left; `log` gets one line per round.
+///
+/// # Errors
+/// A round that cannot run (the runner refuses a case, one needs too much memory, the store
+/// fails).
+pub fn run_tries(
+    sweep: &SweepSpec,
+    cases: &[PlannedCase],
+    template: &[TryLine],
+    runner: &dyn CaseRunner,
+    opts: &SweepOptions,
+    log: &mut dyn FnMut(&str),
+) -> Result<TriesSummary, SweepError> {
+    let mut summary = TriesSummary {
+        lines: template.len(),
+        grid: cases.len(),
+        ..TriesSummary::default()
+    };
+    // a failed case is retried once, in the first round
+    let mut retry_failed = opts.retry_failed;
+    let state = loop {
+        let lookup = &mut |ids: &[&str]| stored_outcomes(&opts.db, ids);
+        let state = replay(sweep, cases, template.to_vec(), retry_failed, lookup)?;
+        if state.finished() {
+            break state;
+        }
+        let round: Vec<PlannedCase> = state.round().iter().map(|&i| cases[i].clone()).collect();
+        summary.rounds += 1;
+        log(&format!(
+            "tries {}: round {}, {} line(s) still trying, {} met",
+            sweep.name,
+            summary.rounds,
+            round.len(),
+            state.lines.iter().filter(|l| l.met.is_some()).count()
+        ));
+        let round_opts = SweepOptions {
+            retry_failed,
+            ..opts.clone()
+        };
+        retry_failed = false;
+        let s = run_sweep(sweep, &round, runner, &round_opts)?;
+        summary.ran += s.ran;
+        summary.failed += s.failed;
+        if s.ran == 0 {
+            // nothing could run: the round's open cases are another process's
+            summary.elsewhere = s.elsewhere;
+            break state;
+        }
+    };
+    summary.met = state.lines.iter().filter(|l| l.met.is_some()).count();
+    summary.finished = state.finished();
+    summary.tried = state
+        .lines
+        .iter()
+        .map(|l| {
+            let last = l.met.or(l.current);
+            last.map_or(l.tries.len(), |c| {
+                l.tries.iter().position(|&t| t == c).unwrap_or(0) + 1
+            })
+        })
+        .sum();
+    Ok(summary)
+}
+
+/// The swept paths the tries run over: `over`, with its zip partners.
+fn tried_paths(sweep: &SweepSpec, spec: &TriesSpec) -> Vec<String> {
+    sweep
+        .zips
+        .iter()
+        .find(|g| g.iter().any(|a| a.path == spec.over))
+        .map_or_else(
+            || vec![spec.over.clone()],
+            |g| g.iter().map(|a| a.path.clone()).collect(),
+        )
+}
+
+/// A case label without the tried fields (`name=value` words whose name is a tried path's last
+/// segment or the path itself).
+fn label_without(label: &str, tried: &[String]) -> String {
+    let names: Vec<&str> = tried
+        .iter()
+        .flat_map(|p| [p.as_str(), p.rsplit('.').next().unwrap_or(p)])
+        .collect();
+    let kept: Vec<&str> = label
+        .split(' ')
+        .filter(|w| !w.split_once('=').is_some_and(|(n, _)| names.contains(&n)))
+        .collect();
+    if kept.is_empty() {
+        "base".into()
+    } else {
+        kept.join(" ")
+    }
+}
+
+/// `until` names an outcome kind the classifier can give.
+fn check_kind(sweep: &SweepSpec, spec: &TriesSpec) -> Result<(), ConfigError> {
+    if let Until::Kind(k) = &spec.until {
+        if serde_json::from_value::<OutcomeKind>(Value::String(k.clone())).is_err() {
+            return Err(ConfigError::Sweep {
+                file: sweep.file.clone(),
+                field: "tries.until".into(),
+                message: format!(
+                    "`{k}` is not an outcome kind (string, repel, pass, jammed, wall_contact, \
+                     surface_contact, exited, migrated, steady, diverged, timeout)"
+                ),
+            });
+        }
+    }
+    Ok(())
+}
