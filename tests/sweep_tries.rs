@@ -75,11 +75,24 @@ fn tries(sweep: &SweepSpec, runner: &FakeRunner, opts: &SweepOptions) -> TriesSu
 
 /// The labels of the cases the database holds as finished (done or failed).
 fn finished(db: &Path) -> BTreeSet<String> {
+    labels(
+        db,
+        "SELECT label FROM cases WHERE status IN ('done', 'failed')",
+    )
+}
+
+/// The labels of the cases linked to the sweep `tries` (what `--sweep` queries and `status` see).
+fn linked(db: &Path) -> BTreeSet<String> {
+    labels(
+        db,
+        "SELECT sc.label FROM sweep_cases sc JOIN sweeps s ON s.id = sc.sweep_id
+         WHERE s.name = 'tries'",
+    )
+}
+
+fn labels(db: &Path, sql: &str) -> BTreeSet<String> {
     let store = Store::open_read_only(db).unwrap();
-    let mut st = store
-        .connection()
-        .prepare("SELECT label FROM cases WHERE status IN ('done', 'failed')")
-        .unwrap();
+    let mut st = store.connection().prepare(sql).unwrap();
     let rows = st.query_map([], |r| r.get::<_, String>(0)).unwrap();
     rows.map(Result::unwrap).collect()
 }
@@ -112,6 +125,8 @@ fn each_combination_stops_at_its_first_string() {
             "n=4 lx=0.5 ly=0.1",
         ])
     );
+    // the sweep's cases are its tries, every round's
+    assert_eq!(linked(&db), finished(&db));
     // a rerun finds nothing left to try
     let again = tries(&sweep, &FakeRunner::new(behaviour), &opts(&db));
     assert_eq!(
@@ -169,6 +184,17 @@ fn cases_a_grid_run_finished_count_as_tries() {
     let s = tries(&parse(SWEEP, &dir), &FakeRunner::new(behaviour), &opts(&db));
     // N = 3's first spacing still runs (it comes first); N = 4's last is not run again
     assert_eq!((s.ran, s.tried, s.met), (4, 6, 2), "{s:?}");
+    // the grid's registration is replaced by the tries: N = 3's third spacing is not the sweep's
+    {
+        let mut store = Store::open(&db).unwrap();
+        let id = store.register_sweep(&parse(SWEEP, &dir)).unwrap();
+        store.add_cases(id, &cases).unwrap();
+    }
+    assert_eq!(linked(&db).len(), 9);
+    let s = tries(&parse(SWEEP, &dir), &FakeRunner::new(behaviour), &opts(&db));
+    assert_eq!((s.ran, s.tried), (0, 6));
+    assert_eq!(linked(&db), finished(&db));
+    assert!(!linked(&db).contains("n=3 lx=0.5 ly=0.1"));
 }
 
 #[test]

@@ -21,6 +21,7 @@ use super::search::replay::Outcomes;
 use super::search::stored_outcomes;
 use crate::config::{ConfigError, PlannedCase, SweepSpec, TriesSpec, Until};
 use crate::observe::OutcomeKind;
+use crate::store::Store;
 
 /// One combination of the other axes and its tries.
 #[derive(Debug, Clone, PartialEq)]
@@ -48,6 +49,26 @@ impl TriesState {
         let mut r: Vec<usize> = self.lines.iter().filter_map(|l| l.current).collect();
         r.sort_unstable();
         r
+    }
+
+    /// The cases tried so far, the current round's included: on each line its tries up to the
+    /// one that met `until` or the current one, all of them when none met it; in grid order.
+    /// They are the sweep's cases in the store (a round registers them all, so that the earlier
+    /// rounds stay linked to the sweep and the tries not needed are not).
+    pub fn tried(&self) -> Vec<usize> {
+        let mut v: Vec<usize> = self
+            .lines
+            .iter()
+            .flat_map(|l| {
+                let last = l.met.or(l.current);
+                let n = last.map_or(l.tries.len(), |c| {
+                    l.tries.iter().position(|&t| t == c).map_or(0, |p| p + 1)
+                });
+                l.tries[..n].iter().copied()
+            })
+            .collect();
+        v.sort_unstable();
+        v
     }
 
     /// Whether no line has a try left to run.
@@ -187,13 +208,15 @@ pub fn run_tries(
         if state.finished() {
             break state;
         }
-        let round: Vec<PlannedCase> = state.round().iter().map(|&i| cases[i].clone()).collect();
+        // the round runs the current tries; the earlier ones are passed too (finished: the
+        // engine skips them) so that the sweep's cases in the store are every try so far
+        let tried: Vec<PlannedCase> = state.tried().iter().map(|&i| cases[i].clone()).collect();
         summary.rounds += 1;
         log(&format!(
             "tries {}: round {}, {} line(s) still trying, {} met",
             sweep.name,
             summary.rounds,
-            round.len(),
+            state.round().len(),
             state.lines.iter().filter(|l| l.met.is_some()).count()
         ));
         let round_opts = SweepOptions {
@@ -201,7 +224,7 @@ pub fn run_tries(
             ..opts.clone()
         };
         retry_failed = false;
-        let s = run_sweep(sweep, &round, runner, &round_opts)?;
+        let s = run_sweep(sweep, &tried, runner, &round_opts)?;
         summary.ran += s.ran;
         summary.failed += s.failed;
         if s.ran == 0 {
@@ -210,18 +233,17 @@ pub fn run_tries(
             break state;
         }
     };
+    if summary.rounds == 0 {
+        // nothing left to run: the sweep's cases in the store become its tries all the same
+        // (a grid run of the same file registered every case)
+        let tried: Vec<PlannedCase> = state.tried().iter().map(|&i| cases[i].clone()).collect();
+        let mut store = Store::open(&opts.db)?;
+        let id = store.register_sweep(sweep)?;
+        store.add_cases(id, &tried)?;
+    }
     summary.met = state.lines.iter().filter(|l| l.met.is_some()).count();
     summary.finished = state.finished();
-    summary.tried = state
-        .lines
-        .iter()
-        .map(|l| {
-            let last = l.met.or(l.current);
-            last.map_or(l.tries.len(), |c| {
-                l.tries.iter().position(|&t| t == c).unwrap_or(0) + 1
-            })
-        })
-        .sum();
+    summary.tried = state.tried().len();
     Ok(summary)
 }
 
