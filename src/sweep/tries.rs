@@ -293,3 +293,58 @@ fn check_kind(sweep: &SweepSpec, spec: &TriesSpec) -> Result<(), ConfigError> {
     }
     Ok(())
 }
+
+#[cfg(test)]
+mod tests {
+    use std::path::Path;
+
+    use super::*;
+    use crate::sweep::expand;
+
+    const SWEEP: &str = r#"
+        name = "t"
+        [base]
+        fluid = { model = "giesekus", alpha = 0.01, beta = 0.1, wi = 1.0 }
+        geometry.confined_shear = { h = 1.0, l = 4.0 }
+        particles = { radius = 0.1, layout.string = { n = 2, lx = 0.5, ly = 0.1 } }
+        numerics = { mesh = [40, 10], dt = 0.01, t_end = 1.0 }
+        [axes]
+        particles.layout.string.ly = [0.1, 0.05]
+        fluid.wi = [1, 2, 3]
+        [tries]
+        over = "particles.layout.string.ly"
+        until = "string"
+    "#;
+
+    #[test]
+    fn a_plain_axis_tried_in_its_order_on_each_combination_of_the_others() {
+        let sweep = SweepSpec::from_str(SWEEP, false, Path::new("t.toml")).unwrap();
+        let cases = expand(&sweep).unwrap();
+        let lines = lines(&sweep, &cases).unwrap();
+        // the axes expand sorted by path (wi slowest): each line is two neighbours, in the
+        // written order of ly
+        let got: Vec<(&str, &[usize])> = lines
+            .iter()
+            .map(|l| (l.label.as_str(), l.tries.as_slice()))
+            .collect();
+        assert_eq!(
+            got,
+            [
+                ("wi=1", &[0, 1][..]),
+                ("wi=2", &[2, 3][..]),
+                ("wi=3", &[4, 5][..])
+            ]
+        );
+        // with nothing stored every line's first try is the round, and the tries so far
+        let state = replay(&sweep, &cases, lines, false, &mut |_: &[&str]| {
+            Ok::<_, ConfigError>(Outcomes::new())
+        })
+        .unwrap();
+        assert!(cases[0].label.contains("ly=0.1") && cases[1].label.contains("ly=0.05"));
+        assert_eq!(
+            (state.round(), state.tried()),
+            (vec![0, 2, 4], vec![0, 2, 4])
+        );
+        assert!(!state.finished());
+    }
+}
