@@ -234,4 +234,23 @@ fn the_command_line_validates_lists_and_runs() {
     let (code, out) = run(SWEEP, false);
     assert_eq!(code, ExitCode::SUCCESS);
     assert!(out.contains("6 of the grid's 9 cases tried"), "{out}");
+    // a dry run against the database says where the tries stand, and writes nothing
+    let before = std::fs::metadata(dir.join("cli.db"))
+        .unwrap()
+        .modified()
+        .unwrap();
+    let (code, out) = run(SWEEP, true);
+    assert_eq!(code, ExitCode::SUCCESS);
+    assert!(
+        out.contains(
+            "6 case(s) tried; 2 combination(s) ended in string, 1 tried every value \
+             without it, 0 still trying (next: case(s) none)"
+        ),
+        "{out}"
+    );
+    let after = std::fs::metadata(dir.join("cli.db"))
+        .unwrap()
+        .modified()
+        .unwrap();
+    assert_eq!(before, after);
 }

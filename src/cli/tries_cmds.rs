@@ -11,8 +11,9 @@ use super::sweep_cmds::{
     invalid, list_cases, print_resolved, sweep_options, SweepArgs, EXIT_INVALID,
 };
 use crate::config::{PlannedCase, SweepSpec};
+use crate::store::Store;
 use crate::sweep::engine::SweepError;
-use crate::sweep::tries::{lines, run_tries};
+use crate::sweep::tries::{lines, replay, run_tries};
 use crate::sweep::CaseRunner;
 
 /// Runs (or resumes) the tries of `spec` over its grid `cases`, or lists the grid with
@@ -47,11 +48,38 @@ pub(super) fn run(
             lines.len(),
             cases.len()
         )?;
+        let db = sweep_options(args, spec).db;
+        if db.exists() {
+            // where the tries stand in the database (a reader: read only, writes nothing)
+            let lookup = &mut |ids: &[&str]| Store::open_read_only(&db)?.outcomes_of(ids);
+            match replay(spec, cases, lines.clone(), false, lookup) {
+                Ok(state) => {
+                    let met = state.lines.iter().filter(|l| l.met.is_some()).count();
+                    let round: Vec<String> = state
+                        .round()
+                        .iter()
+                        .map(|&i| cases[i].index.to_string())
+                        .collect();
+                    writeln!(
+                        out,
+                        "in {}: {} case(s) tried; {met} combination(s) ended in {}, {} tried every \
+                         value without it, {} still trying (next: case(s) {})",
+                        db.display(),
+                        state.tried().len(),
+                        t.until.describe(),
+                        state.lines.len() - met - round.len(),
+                        round.len(),
+                        if round.is_empty() { "none".into() } else { round.join(", ") }
+                    )?;
+                }
+                Err(e) if e.is_bad_input() => return invalid(&e),
+                Err(e) => return Err(e.into()),
+            }
+        }
         if args.resolved {
             print_resolved(cases, out)?;
         }
         if args.estimate {
-            let db = sweep_options(args, spec).db;
             super::estimate::print_estimate(cases, &db, out)?;
             writeln!(
                 out,
