@@ -2,7 +2,8 @@
 //! combination of the other axes stops at its first case that meets `until`, in the order the
 //! tried values are written; a failed try passes to the next (and `--retry-failed` runs it
 //! again); a rerun runs nothing; cases a grid run left in the database count; the command line
-//! validates the section (exit 2, nothing written) and lists the grid with `--dry-run`.
+//! validates the section (exit 2, nothing written) and lists the grid with `--dry-run`; on a
+//! cluster each round is a submission planned from the merged database.
 
 mod common;
 use common::Scratch;
@@ -10,11 +11,13 @@ use std::collections::BTreeSet;
 use std::path::Path;
 use std::process::ExitCode;
 
+use xpflow::cli::cluster::{merge_to, run_case_with, MergeArgs, RunCaseArgs};
 use xpflow::cli::sweep_cmds::run_sweep_with;
 use xpflow::config::{CaseSpec, SweepSpec};
 use xpflow::observe::OutcomeKind;
 use xpflow::store::Store;
 use xpflow::sweep::progress::ProgressMode;
+use xpflow::sweep::slurm::Submission;
 use xpflow::sweep::tries::{lines, run_tries, TriesSummary};
 use xpflow::sweep::{expand, run_sweep, FakeBehaviour, FakeRunner, SweepOptions};
 
@@ -253,4 +256,79 @@ fn the_command_line_validates_lists_and_runs() {
         .modified()
         .unwrap();
     assert_eq!(before, after);
+}
+
+/// `--slurm` without a scheduler: each invocation writes the current round's manifest; its tasks
+/// run (`xpflow run-case`), their shards are merged, and `--slurm --resume` plans the next round
+/// from the merged database, until the tries are over — the same cases as on one machine.
+#[test]
+fn on_a_cluster_each_round_is_a_submission_planned_from_the_merged_database() {
+    let dir = Scratch::new("tries", "slurm");
+    let file = dir.join("tries.toml");
+    std::fs::write(&file, SWEEP).unwrap();
+    let db = dir.join("r.db");
+    let sub = Submission::new(&dir.join("sub"));
+    let runner = FakeRunner::new(behaviour);
+    let mut args = common::sweep_args(&file, &db);
+    args.quiet = false;
+    args.slurm.slurm = true;
+    args.slurm.submission = Some(sub.dir.clone());
+    let mut sizes = Vec::new();
+    for round in 1..=4 {
+        args.slurm.resume = round > 1;
+        let mut out = Vec::new();
+        assert_eq!(
+            run_sweep_with(&args, &runner, &mut out).unwrap(),
+            ExitCode::SUCCESS
+        );
+        let out = String::from_utf8(out).unwrap();
+        if out.contains("tries tries: over") {
+            break;
+        }
+        assert!(out.contains("--slurm --resume"), "{out}");
+        let manifest = sub.dir.join(format!("round-{round}/manifest.txt"));
+        let ids = std::fs::read_to_string(&manifest).unwrap();
+        let n = ids.lines().filter(|l| !l.starts_with('#')).count();
+        sizes.push(n);
+        for index in 0..n {
+            let task = RunCaseArgs {
+                manifest: manifest.clone(),
+                index,
+                shards: sub.shards(),
+                local: Some(dir.join("local")),
+                state_every: 5.0,
+                log: None,
+                quiet: true,
+            };
+            assert_eq!(
+                run_case_with(&task, &runner, &mut Vec::new()).unwrap(),
+                ExitCode::SUCCESS
+            );
+        }
+        let merge = MergeArgs {
+            db: db.clone(),
+            shards: vec![sub.shards()],
+        };
+        assert_eq!(
+            merge_to(&merge, &mut Vec::new()).unwrap(),
+            ExitCode::SUCCESS
+        );
+    }
+    assert_eq!(
+        sizes,
+        [3, 2, 1],
+        "rounds: every line, then N = 3 and 4, then N = 4"
+    );
+    assert_eq!(
+        finished(&db),
+        set(&[
+            "n=2 lx=0.25 ly=0.025",
+            "n=3 lx=0.25 ly=0.025",
+            "n=3 lx=0.3 ly=0.05",
+            "n=4 lx=0.25 ly=0.025",
+            "n=4 lx=0.3 ly=0.05",
+            "n=4 lx=0.5 ly=0.1",
+        ])
+    );
+    assert_eq!(linked(&db), finished(&db));
 }

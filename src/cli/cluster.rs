@@ -99,6 +99,22 @@ pub(super) fn sweep_slurm(
     runner: &dyn CaseRunner,
     out: &mut dyn Write,
 ) -> anyhow::Result<ExitCode> {
+    sweep_slurm_round(args, spec, cases, cases, None, runner, out)
+}
+
+/// [`sweep_slurm`] for a sweep whose rounds follow from its outcomes (`[tries]`): `cases` are
+/// the sweep's cases so far (registered in the database), `candidates` those this round may
+/// submit (the others are finished or not needed), and `next` says how the round after this one
+/// is planned.
+pub(super) fn sweep_slurm_round(
+    args: &SweepArgs,
+    spec: &SweepSpec,
+    cases: &[PlannedCase],
+    candidates: &[PlannedCase],
+    next: Option<&str>,
+    runner: &dyn CaseRunner,
+    out: &mut dyn Write,
+) -> anyhow::Result<ExitCode> {
     for c in cases {
         if let Err(reason) = runner.supports(&c.spec) {
             return invalid(&format!(
@@ -146,7 +162,7 @@ pub(super) fn sweep_slurm(
     let finished = slurm::estimate::finished_cases(&store)?;
     drop(store);
     let queue = sub.queue();
-    let plan = slurm::plan(&sub, cases, &done, queue.as_deref());
+    let plan = slurm::plan(&sub, candidates, &done, queue.as_deref());
     if queue.is_none() && !rounds.is_empty() && !plan.cases.is_empty() {
         writeln!(
             out,
@@ -163,6 +179,9 @@ pub(super) fn sweep_slurm(
             plan.done,
             plan.active
         )?;
+        if let Some(next) = next {
+            writeln!(out, "{next}")?;
+        }
         return Ok(ExitCode::SUCCESS);
     }
     let rate = Rate::from_finished(&finished);
@@ -214,6 +233,9 @@ pub(super) fn sweep_slurm(
         sub.dir.display(),
         db.display()
     )?;
+    if let Some(next) = next {
+        writeln!(out, "{next}")?;
+    }
     Ok(ExitCode::SUCCESS)
 }
 

@@ -185,14 +185,6 @@ pub fn run_sweep_with(
         Err(e) => return invalid(&e),
     };
     if spec.tries.is_some() {
-        if args.slurm.slurm {
-            // each round of tries follows from the last one's outcomes, as a search's
-            return invalid(&format!(
-                "{}: a sweep with a [tries] section cannot run with --slurm yet (run it on one \
-                 machine, or submit it without [tries] as a grid)",
-                args.file.display()
-            ));
-        }
         return super::tries_cmds::run(args, &spec, &cases, runner, out);
     }
     if args.dry_run {

@@ -13,7 +13,7 @@ use super::sweep_cmds::{
 use crate::config::{PlannedCase, SweepSpec};
 use crate::store::Store;
 use crate::sweep::engine::SweepError;
-use crate::sweep::tries::{lines, replay, run_tries};
+use crate::sweep::tries::{lines, replay, run_tries, TryLine};
 use crate::sweep::CaseRunner;
 
 /// Runs (or resumes) the tries of `spec` over its grid `cases`, or lists the grid with
@@ -89,6 +89,9 @@ pub(super) fn run(
         }
         return Ok(ExitCode::SUCCESS);
     }
+    if args.slurm.slurm {
+        return slurm_round(args, spec, cases, &lines, runner, out);
+    }
     let opts = sweep_options(args, spec);
     let mut log = |line: &str| {
         if !args.quiet {
@@ -136,4 +139,54 @@ pub(super) fn run(
         Err(SweepError::Store(e)) if e.is_bad_input() => invalid(&e),
         Err(e) => Err(e).context(format!("sweep {}", spec.name)),
     }
+}
+
+/// `--slurm`: submits the current round of tries (each line's first try not finished in the
+/// database) as a job array; the sweep's cases in the database become the tries so far. The
+/// next round is planned from the merged database by running the command again with `--resume`.
+fn slurm_round(
+    args: &SweepArgs,
+    spec: &SweepSpec,
+    cases: &[PlannedCase],
+    lines: &[TryLine],
+    runner: &dyn CaseRunner,
+    out: &mut dyn Write,
+) -> anyhow::Result<ExitCode> {
+    let db = sweep_options(args, spec).db;
+    let lookup = &mut |ids: &[&str]| {
+        if db.exists() {
+            Store::open_read_only(&db)?.outcomes_of(ids)
+        } else {
+            Ok(Default::default())
+        }
+    };
+    let state = match replay(spec, cases, lines.to_vec(), args.retry_failed, lookup) {
+        Ok(s) => s,
+        Err(e) if e.is_bad_input() => return invalid(&e),
+        Err(e) => return Err(e.into()),
+    };
+    if state.finished() {
+        writeln!(
+            out,
+            "tries {}: over — no combination has a try left ({} case(s) tried; see `xpflow \
+             sweep {} --dry-run`)",
+            spec.name,
+            state.tried().len(),
+            args.file.display()
+        )?;
+        return Ok(ExitCode::SUCCESS);
+    }
+    let tried: Vec<PlannedCase> = state.tried().iter().map(|&i| cases[i].clone()).collect();
+    let round: Vec<PlannedCase> = state.round().iter().map(|&i| cases[i].clone()).collect();
+    let next = format!(
+        "tries {}: this round holds each combination's first try not finished in {} ({} of {}); \
+         the next one follows from its outcomes: once its tasks are done, merge their shards \
+         and run `xpflow sweep {} --slurm --resume` again",
+        spec.name,
+        db.display(),
+        round.len(),
+        lines.len(),
+        args.file.display()
+    );
+    super::cluster::sweep_slurm_round(args, spec, &tried, &round, Some(&next), runner, out)
 }
