@@ -10,7 +10,7 @@ use anyhow::Context;
 use super::sweep_cmds::{
     invalid, list_cases, print_resolved, sweep_options, QueryArgs, SweepArgs, EXIT_INVALID,
 };
-use crate::config::{ConfigError, SweepSpec};
+use crate::config::{ConfigError, PlannedCase, SweepSpec};
 use crate::store::query::Filter;
 use crate::store::Store;
 use crate::sweep::engine::SweepError;
@@ -65,6 +65,9 @@ pub(super) fn run_search(
             print_resolved(&coarse.cases, out)?;
         }
         return Ok(ExitCode::SUCCESS);
+    }
+    if args.slurm.slurm {
+        return slurm_round(args, spec, runner, out);
     }
     let opts = sweep_options(args, spec);
     let mut log = |line: &str| {
@@ -158,4 +161,59 @@ pub(super) fn query_boundaries(
         Err(SearchError::Config(e)) => invalid(&e),
         Err(e) => Err(e.into()),
     }
+}
+
+/// `--slurm`: submits the search's current round (its planned cases not finished in the
+/// database) as a job array, their swept fields beside the manifest (the tasks cannot expand a
+/// search); the sweep's cases in the database become the cases planned so far. The next round
+/// is planned from the merged database by running the command again with `--resume`.
+fn slurm_round(
+    args: &SweepArgs,
+    spec: &SweepSpec,
+    runner: &dyn CaseRunner,
+    out: &mut dyn Write,
+) -> anyhow::Result<ExitCode> {
+    let db = sweep_options(args, spec).db;
+    let lookup = &mut |ids: &[&str]| -> Result<Outcomes, SearchError> {
+        if db.exists() {
+            Ok(Store::open_read_only(&db)?.outcomes_of(ids)?)
+        } else {
+            Ok(Outcomes::new())
+        }
+    };
+    let state = match replay(spec, args.max_cases, lookup) {
+        Ok(s) => s,
+        Err(SearchError::Config(e)) => return invalid(&e),
+        Err(SearchError::Store(e)) if e.is_bad_input() => return invalid(&e),
+        Err(e) => return Err(e.into()),
+    };
+    if state.finished {
+        writeln!(
+            out,
+            "search {}: over — {} cases in {} round(s); brackets: xpflow query boundaries --db {}",
+            spec.name,
+            state.cases.len(),
+            state.rounds,
+            db.display()
+        )?;
+        return Ok(ExitCode::SUCCESS);
+    }
+    let open: Vec<PlannedCase> = state
+        .lines
+        .iter()
+        .flat_map(|l| &l.points)
+        .filter(|p| !p.finished)
+        .map(|p| state.cases[p.case].clone())
+        .collect();
+    let next = format!(
+        "search {}: this is round {} ({} case(s) not finished in {}); the next one follows from \
+         its outcomes: once its tasks are done, merge their shards and run `xpflow sweep {} \
+         --slurm --resume` again",
+        spec.name,
+        state.rounds,
+        open.len(),
+        db.display(),
+        args.file.display()
+    );
+    super::cluster::sweep_slurm_round(args, spec, &state.cases, &open, Some(&next), runner, out)
 }

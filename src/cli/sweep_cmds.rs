@@ -169,15 +169,6 @@ pub fn run_sweep_with(
         Err(e) => return invalid(&e),
     };
     if spec.search.is_some() {
-        if args.slurm.slurm {
-            // a search decides each round from the last one's outcomes: it would need a merge
-            // between rounds, which the cluster path does not do yet
-            return invalid(&format!(
-                "{}: a sweep with a [search] section cannot run with --slurm yet (run it on one \
-                 machine, or submit a grid)",
-                args.file.display()
-            ));
-        }
         return super::search_cmds::run_search(args, &spec, runner, out);
     }
     let cases = match expand_at_most(&spec, args.max_cases) {

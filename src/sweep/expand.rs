@@ -196,6 +196,17 @@ pub(crate) fn plan_case(
     params: Vec<(String, Value)>,
 ) -> Result<PlannedCase, ConfigError> {
     let label = labels.of(&params);
+    plan_labelled(sweep, index, label, params)
+}
+
+/// [`plan_case`] with its label given: a case planned elsewhere (a search's round, written
+/// beside a cluster round's manifest) planned again from its swept fields.
+pub(crate) fn plan_labelled(
+    sweep: &SweepSpec,
+    index: usize,
+    label: String,
+    params: Vec<(String, Value)>,
+) -> Result<PlannedCase, ConfigError> {
     let case_err = |error: SpecError| ConfigError::Case {
         file: sweep.file.clone(),
         index,

@@ -12,8 +12,10 @@ use std::path::{Path, PathBuf};
 use std::time::Duration;
 
 use super::engine::{states_dir, SweepError, SweepOptions, SweepSummary};
+use super::expand::plan_labelled;
 use super::manifest::{Manifest, ManifestError};
 use super::progress::ProgressMode;
+use super::slurm::{RoundCase, ROUND_CASES};
 use super::{expand, run_sweep, CaseRunner};
 use crate::config::{ConfigError, SweepSpec};
 use crate::store::shard::{restore, shard_cases};
@@ -164,15 +166,33 @@ pub fn run_task(opts: &TaskOptions, runner: &dyn CaseRunner) -> Result<TaskOutco
     let id = manifest.case(opts.index)?.to_string();
     let sweep_file = manifest.sweep_file();
     let spec = SweepSpec::from_file(&sweep_file)?;
-    let case = expand(&spec)?
-        .into_iter()
-        .find(|c| c.id == id)
-        .ok_or_else(|| TaskError::NotInSweep {
-            manifest: opts.manifest.clone(),
-            index: opts.index,
-            case: id.clone(),
-            sweep: sweep_file.clone(),
-        })?;
+    let not_in_sweep = || TaskError::NotInSweep {
+        manifest: opts.manifest.clone(),
+        index: opts.index,
+        case: id.clone(),
+        sweep: sweep_file.clone(),
+    };
+    let case = if spec.search.is_some() {
+        // a search's cases are planned from its results: the round lists their swept fields
+        let path = opts
+            .manifest
+            .parent()
+            .unwrap_or_else(|| Path::new("."))
+            .join(ROUND_CASES);
+        let listed: Vec<RoundCase> = std::fs::read_to_string(&path)
+            .ok()
+            .and_then(|t| serde_json::from_str(&t).ok())
+            .ok_or_else(not_in_sweep)?;
+        let c = listed
+            .into_iter()
+            .find(|c| c.id == id)
+            .ok_or_else(not_in_sweep)?;
+        Some(plan_labelled(&spec, c.index, c.label, c.params)?)
+    } else {
+        expand(&spec)?.into_iter().find(|c| c.id == id)
+    }
+    .filter(|c| c.id == id)
+    .ok_or_else(not_in_sweep)?;
     let published = shard_path(&opts.shards, &id);
     if published.is_file() && shard_cases(&published)?.iter().any(|c| c.status == "done") {
         std::fs::remove_file(marker_path(&opts.shards, &id)).ok();

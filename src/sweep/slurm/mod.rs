@@ -250,8 +250,25 @@ pub fn plan<'a>(
     plan
 }
 
-/// Writes round `sub.rounds().len() + 1` for `cases`: the sweep file's copy, the manifest, the
-/// scripts (arrays of at most `max_array_size`), `jobs.txt` without job ids.
+/// The file beside a round's manifest with the swept fields of its cases ([`RoundCase`]).
+pub const ROUND_CASES: &str = "cases.json";
+
+/// A case of a round as written beside its manifest: enough to plan it again from the sweep
+/// file without expanding it.
+#[derive(Debug, Clone, PartialEq, serde::Serialize, serde::Deserialize)]
+pub struct RoundCase {
+    /// The case id.
+    pub id: String,
+    /// Its index in the sweep (or the search).
+    pub index: usize,
+    /// Its label.
+    pub label: String,
+    /// The swept fields and their values.
+    pub params: Vec<(String, serde_json::Value)>,
+}
+
+/// Writes round `sub.rounds().len() + 1` for `cases`: the sweep file's copy, the manifest, its
+/// cases' swept fields ([`ROUND_CASES`]), the scripts (arrays of at most `max_array_size`), `jobs.txt` without job ids.
 ///
 /// # Errors
 /// [`SlurmError::Io`] with the path.
@@ -276,6 +293,20 @@ pub fn write_round(
     let ids: Vec<String> = cases.iter().map(|c| c.id.clone()).collect();
     let manifest_path = dir.join("manifest.txt");
     let manifest = Manifest::write(&manifest_path, &copy, &ids).map_err(io(&manifest_path))?;
+    // the swept fields of each case: a search's cases are planned from its results, so its
+    // tasks cannot find them by expanding the sweep file (`task::run_task` reads this instead)
+    let planned: Vec<RoundCase> = cases
+        .iter()
+        .map(|c| RoundCase {
+            id: c.id.clone(),
+            index: c.index,
+            label: c.label.clone(),
+            params: c.params.clone(),
+        })
+        .collect();
+    let cases_path = dir.join(ROUND_CASES);
+    let json = serde_json::to_string_pretty(&planned).unwrap_or_default();
+    std::fs::write(&cases_path, json).map_err(io(&cases_path))?;
     let exe = std::env::current_exe().map_err(io(Path::new("the xpflow binary")))?;
     let (shards, logs) = (sub.shards(), sub.logs());
     let paths = ScriptPaths {
