@@ -12,14 +12,12 @@ use std::process::ExitCode;
 use std::sync::{Arc, Mutex};
 use std::time::{Duration, Instant};
 
-use xpflow::cli::cluster::{merge_to, run_case_with, MergeArgs, RunCaseArgs};
 use xpflow::cli::sweep_cmds::{run_query_to, run_sweep_with, QueryArgs, QueryWhat};
 use xpflow::config::{CaseSpec, SweepSpec};
 use xpflow::observe::OutcomeKind;
 use xpflow::store::{Format, Store, Table};
 use xpflow::sweep::progress::ProgressMode;
 use xpflow::sweep::search::{boundaries_table, run_search, SearchSummary};
-use xpflow::sweep::slurm::Submission;
 use xpflow::sweep::{case_id, FakeBehaviour, FakeRunner, SweepOptions};
 
 /// Environment variable that turns the ignored `search_kill_child` test into the killed child.
@@ -404,53 +402,13 @@ fn on_a_cluster_each_round_is_a_submission_planned_from_the_merged_database() {
 
     let file = dir.join("search.toml");
     let db = dir.join("r.db");
-    let sub = Submission::new(&dir.join("sub"));
     let runner = FakeRunner::new(behaviour);
     let mut args = common::sweep_args(&file, &db);
     args.quiet = false;
     args.slurm.slurm = true;
-    args.slurm.submission = Some(sub.dir.clone());
-    let mut rounds = 0;
-    for round in 1..=s.rounds + 1 {
-        args.slurm.resume = round > 1;
-        let mut out = Vec::new();
-        assert_eq!(
-            run_sweep_with(&args, &runner, &mut out).unwrap(),
-            ExitCode::SUCCESS
-        );
-        let out = String::from_utf8(out).unwrap();
-        if out.contains("search cluster: over") {
-            break;
-        }
-        assert!(out.contains("--slurm --resume"), "{out}");
-        rounds += 1;
-        let manifest = sub.dir.join(format!("round-{round}/manifest.txt"));
-        let ids = std::fs::read_to_string(&manifest).unwrap();
-        for index in 0..ids.lines().filter(|l| !l.starts_with('#')).count() {
-            let task = RunCaseArgs {
-                manifest: manifest.clone(),
-                index,
-                shards: sub.shards(),
-                local: Some(dir.join("tmp")),
-                state_every: 5.0,
-                log: None,
-                quiet: true,
-            };
-            assert_eq!(
-                run_case_with(&task, &runner, &mut Vec::new()).unwrap(),
-                ExitCode::SUCCESS
-            );
-        }
-        let merge = MergeArgs {
-            db: db.clone(),
-            shards: vec![sub.shards()],
-        };
-        assert_eq!(
-            merge_to(&merge, &mut Vec::new()).unwrap(),
-            ExitCode::SUCCESS
-        );
-    }
-    assert_eq!(rounds, s.rounds);
+    args.slurm.submission = Some(dir.join("sub"));
+    let rounds = common::cluster_rounds(&mut args, &runner, "search cluster: over", s.rounds + 1);
+    assert_eq!(rounds.len(), s.rounds);
     assert_eq!(finished_ids(&db), finished_ids(&local));
     let render = |db: &Path| brackets(db).render(xpflow::store::Format::Csv);
     assert_eq!(render(&db), render(&local));

@@ -11,13 +11,11 @@ use std::collections::BTreeSet;
 use std::path::Path;
 use std::process::ExitCode;
 
-use xpflow::cli::cluster::{merge_to, run_case_with, MergeArgs, RunCaseArgs};
 use xpflow::cli::sweep_cmds::run_sweep_with;
 use xpflow::config::{CaseSpec, SweepSpec};
 use xpflow::observe::OutcomeKind;
 use xpflow::store::Store;
 use xpflow::sweep::progress::ProgressMode;
-use xpflow::sweep::slurm::Submission;
 use xpflow::sweep::tries::{lines, run_tries, TriesSummary};
 use xpflow::sweep::{expand, run_sweep, FakeBehaviour, FakeRunner, SweepOptions};
 
@@ -100,6 +98,17 @@ fn labels(db: &Path, sql: &str) -> BTreeSet<String> {
     rows.map(Result::unwrap).collect()
 }
 
+/// The cases the tries of [`SWEEP`] run with [`behaviour`]: N = 2 at its first spacing, N = 3 at
+/// its first two, N = 4 at all three.
+const TRIED: [&str; 6] = [
+    "n=2 lx=0.25 ly=0.025",
+    "n=3 lx=0.25 ly=0.025",
+    "n=3 lx=0.3 ly=0.05",
+    "n=4 lx=0.25 ly=0.025",
+    "n=4 lx=0.3 ly=0.05",
+    "n=4 lx=0.5 ly=0.1",
+];
+
 fn set(labels: &[&str]) -> BTreeSet<String> {
     labels.iter().map(|s| s.to_string()).collect()
 }
@@ -117,17 +126,7 @@ fn each_combination_stops_at_its_first_string() {
     );
     // N = 2 at its first spacing, N = 3 at its second, N = 4 through all three
     assert_eq!(s.rounds, 3, "one round per try of the longest combination");
-    assert_eq!(
-        finished(&db),
-        set(&[
-            "n=2 lx=0.25 ly=0.025",
-            "n=3 lx=0.25 ly=0.025",
-            "n=3 lx=0.3 ly=0.05",
-            "n=4 lx=0.25 ly=0.025",
-            "n=4 lx=0.3 ly=0.05",
-            "n=4 lx=0.5 ly=0.1",
-        ])
-    );
+    assert_eq!(finished(&db), set(&TRIED));
     // the sweep's cases are its tries, every round's
     assert_eq!(linked(&db), finished(&db));
     // a rerun finds nothing left to try
@@ -267,68 +266,17 @@ fn on_a_cluster_each_round_is_a_submission_planned_from_the_merged_database() {
     let file = dir.join("tries.toml");
     std::fs::write(&file, SWEEP).unwrap();
     let db = dir.join("r.db");
-    let sub = Submission::new(&dir.join("sub"));
     let runner = FakeRunner::new(behaviour);
     let mut args = common::sweep_args(&file, &db);
     args.quiet = false;
     args.slurm.slurm = true;
-    args.slurm.submission = Some(sub.dir.clone());
-    let mut sizes = Vec::new();
-    for round in 1..=4 {
-        args.slurm.resume = round > 1;
-        let mut out = Vec::new();
-        assert_eq!(
-            run_sweep_with(&args, &runner, &mut out).unwrap(),
-            ExitCode::SUCCESS
-        );
-        let out = String::from_utf8(out).unwrap();
-        if out.contains("tries tries: over") {
-            break;
-        }
-        assert!(out.contains("--slurm --resume"), "{out}");
-        let manifest = sub.dir.join(format!("round-{round}/manifest.txt"));
-        let ids = std::fs::read_to_string(&manifest).unwrap();
-        let n = ids.lines().filter(|l| !l.starts_with('#')).count();
-        sizes.push(n);
-        for index in 0..n {
-            let task = RunCaseArgs {
-                manifest: manifest.clone(),
-                index,
-                shards: sub.shards(),
-                local: Some(dir.join("local")),
-                state_every: 5.0,
-                log: None,
-                quiet: true,
-            };
-            assert_eq!(
-                run_case_with(&task, &runner, &mut Vec::new()).unwrap(),
-                ExitCode::SUCCESS
-            );
-        }
-        let merge = MergeArgs {
-            db: db.clone(),
-            shards: vec![sub.shards()],
-        };
-        assert_eq!(
-            merge_to(&merge, &mut Vec::new()).unwrap(),
-            ExitCode::SUCCESS
-        );
-    }
+    args.slurm.submission = Some(dir.join("sub"));
+    let sizes = common::cluster_rounds(&mut args, &runner, "tries tries: over", 4);
     assert_eq!(
         sizes,
         [3, 2, 1],
         "rounds: every line, then N = 3 and 4, then N = 4"
     );
-    assert_eq!(
-        finished(&db),
-        set(&[
-            "n=2 lx=0.25 ly=0.025",
-            "n=3 lx=0.25 ly=0.025",
-            "n=3 lx=0.3 ly=0.05",
-            "n=4 lx=0.25 ly=0.025",
-            "n=4 lx=0.3 ly=0.05",
-            "n=4 lx=0.5 ly=0.1",
-        ])
-    );
+    assert_eq!(finished(&db), set(&TRIED));
     assert_eq!(linked(&db), finished(&db));
 }

@@ -79,6 +79,61 @@ impl ConfigError {
     }
 }
 
+/// Reads a section table of a sweep file (`[search]`, `[tries]`) into `T`, with errors that name
+/// the file and the field (`section.key`): a missing key by its name, a bad value by the line
+/// serde reports in the pretty-printed table. `untagged` names the fields whose value is an
+/// untagged enum, with the message for a value of none of its forms.
+pub(crate) fn read_section<T: serde::de::DeserializeOwned>(
+    value: &serde_json::Value,
+    file: &std::path::Path,
+    section: &str,
+    untagged: &[(&str, &str)],
+) -> Result<T, ConfigError> {
+    let err = |field: &str, message: String| section_error(file, section, field, message);
+    if !value.is_object() {
+        return Err(err("", format!("invalid type: {value}, expected a table")));
+    }
+    // from pretty text, so that serde's line number names the field
+    let pretty = serde_json::to_string_pretty(value).unwrap_or_default();
+    serde_json::from_str(&pretty).map_err(|e| {
+        let text = e.to_string();
+        let message = text.split(" at line ").next().unwrap_or(&text).to_string();
+        // a missing key has no line of its own: name it from the message
+        let missing = message
+            .strip_prefix("missing field `")
+            .and_then(|rest| rest.split('`').next());
+        let path = json_path_at_line(&pretty, e.line());
+        match missing {
+            Some(key) => err(key, format!("{message}; add it to [{section}]")),
+            None => match untagged.iter().find(|(field, _)| path == *field) {
+                Some((field, expected)) if message.contains("untagged enum") => {
+                    err(field, (*expected).to_string())
+                }
+                _ => err(&path, message),
+            },
+        }
+    })
+}
+
+/// The error of field `field` of section `section` of sweep file `file` (`section` alone for an
+/// empty field).
+pub(crate) fn section_error(
+    file: &std::path::Path,
+    section: &str,
+    field: &str,
+    message: String,
+) -> ConfigError {
+    ConfigError::Sweep {
+        file: file.to_path_buf(),
+        field: if field.is_empty() {
+            section.to_string()
+        } else {
+            format!("{section}.{field}")
+        },
+        message,
+    }
+}
+
 /// Maps a line of pretty-printed JSON (as written by `serde_json::to_string_pretty`, 2-space indent) to the
 /// dotted path of the key on or enclosing that line. Used to name the field of a serde error, whose
 /// position is a line and column only.

@@ -18,7 +18,7 @@ use std::path::Path;
 use serde::{Deserialize, Serialize};
 use serde_json::Value;
 
-use super::error::{json_path_at_line, ConfigError};
+use super::error::{read_section, section_error, ConfigError};
 
 /// Default number of coarse values: enough to see two boundaries on most axes.
 const DEFAULT_COARSE: usize = 5;
@@ -110,28 +110,8 @@ impl SearchSpec {
         file: &Path,
         swept: &[&str],
     ) -> Result<SearchSpec, ConfigError> {
-        let err = |field: &str, message: String| ConfigError::Sweep {
-            file: file.to_path_buf(),
-            field: format!("search{}{field}", if field.is_empty() { "" } else { "." }),
-            message,
-        };
-        if !value.is_object() {
-            return Err(err("", format!("invalid type: {value}, expected a table")));
-        }
-        // from pretty text, so that serde's line number names the field
-        let pretty = serde_json::to_string_pretty(value).unwrap_or_default();
-        let raw: SearchFile = serde_json::from_str(&pretty).map_err(|e| {
-            let text = e.to_string();
-            let message = text.split(" at line ").next().unwrap_or(&text).to_string();
-            // a missing key has no line of its own: name it from the message
-            let missing = message
-                .strip_prefix("missing field `")
-                .and_then(|rest| rest.split('`').next());
-            match missing {
-                Some(key) => err(key, format!("{message}; add it to [search]")),
-                None => err(&json_path_at_line(&pretty, e.line()), message),
-            }
-        })?;
+        let err = |field: &str, message: String| section_error(file, "search", field, message);
+        let raw: SearchFile = read_section(value, file, "search", &[])?;
         let [lo, hi] = raw.range;
         if raw.axis.is_empty() {
             return Err(err(

@@ -19,7 +19,7 @@ use std::path::Path;
 use serde::Deserialize;
 use serde_json::Value;
 
-use super::error::{json_path_at_line, ConfigError};
+use super::error::{read_section, section_error, ConfigError};
 
 /// What ends the tries of one combination of the other axes.
 #[derive(Debug, Clone, PartialEq, Eq, Deserialize)]
@@ -85,32 +85,10 @@ impl TriesSpec {
         file: &Path,
         swept: &[&str],
     ) -> Result<TriesSpec, ConfigError> {
-        let err = |field: &str, message: String| ConfigError::Sweep {
-            file: file.to_path_buf(),
-            field: format!("tries{}{field}", if field.is_empty() { "" } else { "." }),
-            message,
-        };
-        if !value.is_object() {
-            return Err(err("", format!("invalid type: {value}, expected a table")));
-        }
-        // from pretty text, so that serde's line number names the field
-        let pretty = serde_json::to_string_pretty(value).unwrap_or_default();
-        let raw: TriesFile = serde_json::from_str(&pretty).map_err(|e| {
-            let text = e.to_string();
-            let message = text.split(" at line ").next().unwrap_or(&text).to_string();
-            let missing = message
-                .strip_prefix("missing field `")
-                .and_then(|rest| rest.split('`').next());
-            match missing {
-                Some(key) => err(key, format!("{message}; add it to [tries]")),
-                None if message.contains("untagged enum Until") => err(
-                    "until",
-                    "expected an outcome kind (e.g. \"string\") or { string_length_at_least = N }"
-                        .into(),
-                ),
-                None => err(&json_path_at_line(&pretty, e.line()), message),
-            }
-        })?;
+        let err = |field: &str, message: String| section_error(file, "tries", field, message);
+        let expected =
+            "expected an outcome kind (e.g. \"string\") or { string_length_at_least = N }";
+        let raw: TriesFile = read_section(value, file, "tries", &[("until", expected)])?;
         if !swept.contains(&raw.over.as_str()) {
             return Err(err(
                 "over",

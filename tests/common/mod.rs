@@ -110,3 +110,59 @@ pub fn query(
     let code = xpflow::cli::sweep_cmds::run_query_to(&a, &mut out).unwrap();
     (code, String::from_utf8(out).unwrap())
 }
+
+/// The rounds of a `[search]` or `[tries]` sweep through the cluster path without a scheduler:
+/// `xpflow sweep --slurm [--resume]` (`args`, with `--slurm` and its submission directory set)
+/// writes a round, every task of its manifest runs (`xpflow run-case`) and their shards are
+/// merged into the database, until the command answers `over` (a line containing it). Returns
+/// the number of cases of each round.
+#[allow(dead_code)]
+pub fn cluster_rounds(
+    args: &mut xpflow::cli::sweep_cmds::SweepArgs,
+    runner: &xpflow::sweep::FakeRunner,
+    over: &str,
+    most: usize,
+) -> Vec<usize> {
+    use std::process::ExitCode;
+    use xpflow::cli::cluster::{merge_to, run_case_with, MergeArgs, RunCaseArgs};
+    let sub = xpflow::sweep::slurm::Submission::new(args.slurm.submission.as_ref().unwrap());
+    let db = args.db.clone().unwrap();
+    let mut sizes = Vec::new();
+    for round in 1..=most {
+        args.slurm.resume = round > 1;
+        let mut out = Vec::new();
+        let code = xpflow::cli::sweep_cmds::run_sweep_with(args, runner, &mut out).unwrap();
+        assert_eq!(code, ExitCode::SUCCESS);
+        let out = String::from_utf8(out).unwrap();
+        if out.contains(over) {
+            return sizes;
+        }
+        assert!(out.contains("--slurm --resume"), "{out}");
+        let manifest = sub.dir.join(format!("round-{round}/manifest.txt"));
+        let ids = std::fs::read_to_string(&manifest).unwrap();
+        let n = ids.lines().filter(|l| !l.starts_with('#')).count();
+        for index in 0..n {
+            let task = RunCaseArgs {
+                manifest: manifest.clone(),
+                index,
+                shards: sub.shards(),
+                local: Some(sub.dir.join("local")),
+                state_every: 5.0,
+                log: None,
+                quiet: true,
+            };
+            let code = run_case_with(&task, runner, &mut Vec::new()).unwrap();
+            assert_eq!(code, ExitCode::SUCCESS);
+        }
+        let merge = MergeArgs {
+            db: db.clone(),
+            shards: vec![sub.shards()],
+        };
+        assert_eq!(
+            merge_to(&merge, &mut Vec::new()).unwrap(),
+            ExitCode::SUCCESS
+        );
+        sizes.push(n);
+    }
+    panic!("not over after {most} rounds");
+}
