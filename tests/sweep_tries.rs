@@ -127,7 +127,7 @@ fn each_combination_stops_at_its_first_string() {
     // N = 2 at its first spacing, N = 3 at its second, N = 4 through all three
     assert_eq!(s.rounds, 3, "one round per try of the longest combination");
     assert_eq!(finished(&db), set(&TRIED));
-    // the sweep's cases are its tries, every round's
+    // the sweep's cases are its tries, every round's (in the end: the finished ones)
     assert_eq!(linked(&db), finished(&db));
     // a rerun finds nothing left to try
     let again = tries(&sweep, &FakeRunner::new(behaviour), &opts(&db));

@@ -176,7 +176,11 @@ fn slurm_round(
         )?;
         return Ok(ExitCode::SUCCESS);
     }
-    let tried: Vec<PlannedCase> = state.tried().iter().map(|&i| cases[i].clone()).collect();
+    let listed: Vec<PlannedCase> = state
+        .registered()
+        .iter()
+        .map(|&i| cases[i].clone())
+        .collect();
     let round: Vec<PlannedCase> = state.round().iter().map(|&i| cases[i].clone()).collect();
     let next = format!(
         "tries {}: this round holds each combination's first try not finished in {} ({} of {}); \
@@ -188,5 +192,5 @@ fn slurm_round(
         lines.len(),
         args.file.display()
     );
-    super::cluster::sweep_slurm_round(args, spec, &tried, &round, Some(&next), runner, out)
+    super::cluster::sweep_slurm_round(args, spec, &listed, &round, Some(&next), runner, out)
 }

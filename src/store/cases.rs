@@ -213,18 +213,35 @@ impl Store {
     /// current version no longer expands to are unlinked (their rows and results stay in the database;
     /// `query --sweep NAME` lists the sweep as it stands).
     pub fn add_cases(&mut self, sweep_id: i64, cases: &[PlannedCase]) -> Result<()> {
+        self.insert_and_link(sweep_id, cases, true)
+    }
+
+    /// [`add_cases`](Self::add_cases) without unlinking the sweep's other cases: `cases` join
+    /// those the sweep has (a round of tries runs its current cases of a sweep registered whole).
+    pub fn link_cases(&mut self, sweep_id: i64, cases: &[PlannedCase]) -> Result<()> {
+        self.insert_and_link(sweep_id, cases, false)
+    }
+
+    fn insert_and_link(
+        &mut self,
+        sweep_id: i64,
+        cases: &[PlannedCase],
+        replace: bool,
+    ) -> Result<()> {
         let err = self.sql_err();
         let path = self.path.clone();
         let tx = self
             .conn
             .transaction_with_behavior(TransactionBehavior::Immediate)
             .map_err(&err)?;
-        // relinked below: the links are the current expansion of the sweep file
-        tx.execute(
-            "DELETE FROM sweep_cases WHERE sweep_id = ?1",
-            params![sweep_id],
-        )
-        .map_err(&err)?;
+        if replace {
+            // relinked below: the links are the current expansion of the sweep file
+            tx.execute(
+                "DELETE FROM sweep_cases WHERE sweep_id = ?1",
+                params![sweep_id],
+            )
+            .map_err(&err)?;
+        }
         {
             let mut insert = tx
                 .prepare(

@@ -50,6 +50,9 @@ pub struct SweepOptions {
     /// disk, published with its saved states into this directory after every saved state and
     /// when the sweep ends ([`crate::store::shard::publish`]).
     pub publish: Option<PathBuf>,
+    /// Link the cases run to the sweep without unlinking its others (the caller registered the
+    /// sweep's cases: a round of tries); by default the sweep's cases become exactly these.
+    pub keep_links: bool,
 }
 
 impl SweepOptions {
@@ -67,6 +70,7 @@ impl SweepOptions {
             snapshot_dir: None,
             max_case_memory: memory::total(),
             publish: None,
+            keep_links: false,
         }
     }
 }
@@ -158,7 +162,11 @@ pub fn run_sweep(
         None => Store::open(&opts.db)?,
     };
     let sweep_id = store.register_sweep(sweep)?;
-    store.add_cases(sweep_id, cases)?;
+    if opts.keep_links {
+        store.link_cases(sweep_id, cases)?;
+    } else {
+        store.add_cases(sweep_id, cases)?;
+    }
     let reset = store.reset_interrupted(sweep_id, opts.retry_failed)?;
     // each case by its status now: pending ones are run, running ones (another process; those
     // of a killed one were reset above) are left to it, the others are done

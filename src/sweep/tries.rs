@@ -53,8 +53,6 @@ impl TriesState {
 
     /// The cases tried so far, the current round's included: on each line its tries up to the
     /// one that met `until` or the current one, all of them when none met it; in grid order.
-    /// They are the sweep's cases in the store (a round registers them all, so that the earlier
-    /// rounds stay linked to the sweep and the tries not needed are not).
     pub fn tried(&self) -> Vec<usize> {
         let mut v: Vec<usize> = self
             .lines
@@ -62,6 +60,24 @@ impl TriesState {
             .flat_map(|l| {
                 let last = l.met.or(l.current);
                 let n = last.map_or(l.tries.len(), |c| {
+                    l.tries.iter().position(|&t| t == c).map_or(0, |p| p + 1)
+                });
+                l.tries[..n].iter().copied()
+            })
+            .collect();
+        v.sort_unstable();
+        v
+    }
+
+    /// The sweep's cases as the database lists them: on a line that met `until` its tries up to
+    /// that one, on every other line all its tries (those not run yet pending), so that a line
+    /// reads as without `until` only once every try has run; in grid order.
+    pub fn registered(&self) -> Vec<usize> {
+        let mut v: Vec<usize> = self
+            .lines
+            .iter()
+            .flat_map(|l| {
+                let n = l.met.map_or(l.tries.len(), |c| {
                     l.tries.iter().position(|&t| t == c).map_or(0, |p| p + 1)
                 });
                 l.tries[..n].iter().copied()
@@ -208,9 +224,10 @@ pub fn run_tries(
         if state.finished() {
             break state;
         }
-        // the round runs the current tries; the earlier ones are passed too (finished: the
-        // engine skips them) so that the sweep's cases in the store are every try so far
-        let tried: Vec<PlannedCase> = state.tried().iter().map(|&i| cases[i].clone()).collect();
+        // the sweep's cases in the store: every try of a line still trying (the later ones
+        // pending), up to the one that met `until` on the others; the round runs the current ones
+        register(&opts.db, sweep, cases, &state)?;
+        let round: Vec<PlannedCase> = state.round().iter().map(|&i| cases[i].clone()).collect();
         summary.rounds += 1;
         log(&format!(
             "tries {}: round {}, {} line(s) still trying, {} met",
@@ -221,10 +238,11 @@ pub fn run_tries(
         ));
         let round_opts = SweepOptions {
             retry_failed,
+            keep_links: true,
             ..opts.clone()
         };
         retry_failed = false;
-        let s = run_sweep(sweep, &tried, runner, &round_opts)?;
+        let s = run_sweep(sweep, &round, runner, &round_opts)?;
         summary.ran += s.ran;
         summary.failed += s.failed;
         if s.ran == 0 {
@@ -236,15 +254,30 @@ pub fn run_tries(
     if summary.rounds == 0 {
         // nothing left to run: the sweep's cases in the store become its tries all the same
         // (a grid run of the same file registered every case)
-        let tried: Vec<PlannedCase> = state.tried().iter().map(|&i| cases[i].clone()).collect();
-        let mut store = Store::open(&opts.db)?;
-        let id = store.register_sweep(sweep)?;
-        store.add_cases(id, &tried)?;
+        register(&opts.db, sweep, cases, &state)?;
     }
     summary.met = state.lines.iter().filter(|l| l.met.is_some()).count();
     summary.finished = state.finished();
     summary.tried = state.tried().len();
     Ok(summary)
+}
+
+/// Makes the sweep's cases in the database at `db` those of [`TriesState::registered`].
+fn register(
+    db: &std::path::Path,
+    sweep: &SweepSpec,
+    cases: &[PlannedCase],
+    state: &TriesState,
+) -> Result<(), SweepError> {
+    let listed: Vec<PlannedCase> = state
+        .registered()
+        .iter()
+        .map(|&i| cases[i].clone())
+        .collect();
+    let mut store = Store::open(db)?;
+    let id = store.register_sweep(sweep)?;
+    store.add_cases(id, &listed)?;
+    Ok(())
 }
 
 /// The swept paths the tries run over: `over`, with its zip partners.
