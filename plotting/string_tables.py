@@ -3,8 +3,9 @@
 
 string_formation.md: one table per set-up (model, H, a, L, α, β), rows Wi, columns the number of particles N:
 `+` a string formed in at least one case (any initial positions), `+?` strings formed but each on a narrowest
-gap of fewer than two elements (their outcome's warning: may depend on the mesh), `-` decided cases but no string, `?` cases
-exist but none has a decided outcome (pending, failed, diverged, timeout), blank no case; then the same grid as strings / finished cases.
+gap of fewer than two elements (their outcome's warning: may depend on the mesh), `-` every case decided and none a
+string, `?` no string yet and a case not decided (pending — e.g. a position still to try —, failed, diverged, timeout),
+blank no case; then the same grid as strings / finished cases.
 string_summary.md: per set-up and (Wi, N): finished cases, outcome counts, the gap d* = d/a (mean, range)
 and the steady ω* of each particle along the string (mean over strings, left → right), and the longest
 string per Wi.
@@ -34,7 +35,10 @@ def cell(cs: list[fl.Case]) -> str:
     if any("warning" not in c.final for c in strings):
         return "+"
     # every string formed on a gap of fewer than two elements (the outcome's warning, issue 25)
-    return "+?" if strings else "-"
+    if strings:
+        return "+?"
+    # '-' only once every case of the cell is decided (a sweep's tries: a position still to run)
+    return "-" if len(decided) == len(cs) else "?"
 
 
 def title(params: dict) -> str:
@@ -68,8 +72,9 @@ def main(f: fl.Figures) -> None:
     groups = fl.shear_groups(cases, KEYS)
     form = [f"# String formation (like thesis Tables 5.2–5.4)", "", header, "",
             "`+` a string formed (any initial positions), `+?` strings formed but each on a gap of fewer "
-            "than two elements (may depend on the mesh), `-` decided cases but no string, "
-            "`?` cases but none finished with a decided outcome (pending, failed, diverged or timeout), "
+            "than two elements (may depend on the mesh), `-` every case decided and none a string, "
+            "`?` no string yet and a case not decided (pending, e.g. a position still to try; failed, "
+            "diverged or timeout), "
             "blank: no case.", ""]
     summ = ["# Strings: gaps and steady angular velocities by Wi and N", "", header, ""]
     for params, cs in groups:

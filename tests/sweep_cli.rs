@@ -430,4 +430,31 @@ fn export_ships_the_finished_cases_thinned() {
     let (code, text) = export(&after, vec![], true, 5);
     assert_eq!(code, ExitCode::SUCCESS, "{text}");
     assert!(text.contains("exported 4 cases of 1 sweep"), "{text}");
+    // a case the sweep lists that has not run is listed as pending, without results
+    let extra = SweepSpec::from_str(
+        &GOOD.replace("fluid.wi = [1, 2]", "fluid.wi = [5]"),
+        false,
+        &file,
+    )
+    .unwrap();
+    {
+        let mut store = xpflow::store::Store::open(&db).unwrap();
+        let id = store.register_sweep(&extra).unwrap();
+        store
+            .link_cases(id, &xpflow::sweep::expand(&extra).unwrap())
+            .unwrap();
+    }
+    let open = dir.join("open.db");
+    let (code, text) = export(&open, vec![], true, 5);
+    assert_eq!(code, ExitCode::SUCCESS, "{text}");
+    assert!(
+        text.contains("exported 4 cases")
+            && text.contains("1 unfinished case(s) listed as pending"),
+        "{text}"
+    );
+    let listed = table(&open);
+    assert!(
+        listed.contains("wi=5") && listed.contains("pending"),
+        "{listed}"
+    );
 }

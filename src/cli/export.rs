@@ -63,7 +63,10 @@ pub fn run_export_to(args: &ExportArgs, out: &mut dyn Write) -> anyhow::Result<E
         e.samples_out,
         e.samples_in,
         if e.unfinished > 0 {
-            format!("; {} unfinished case(s) left out", e.unfinished)
+            format!(
+                "; {} unfinished case(s) listed as pending, without results",
+                e.unfinished
+            )
         } else {
             String::new()
         }

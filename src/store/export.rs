@@ -9,8 +9,10 @@
 //! Trajectories are copied whole, or **thinned** to at most `max_samples` sampled steps per case,
 //! evenly spread in time, the first and the last always kept (what a figure draws; the outcome
 //! was decided from the full trajectory and is stored in full). Snapshot rows are left out: their
-//! HDF5 files live beside the source database and are not part of a dataset. Pending and running
-//! cases are left out too: a dataset holds results.
+//! HDF5 files live beside the source database and are not part of a dataset. The cases a sweep
+//! lists that have not finished (pending, running, interrupted) are kept as `pending` rows without
+//! samples or outcomes — a dataset holds results, and says which of its sweep's cases it has not
+//! got yet (a Table 5.2 cell with a position still to try reads `?`, not `-`).
 //!
 //! The source is opened read-only (a running sweep may go on writing to it); the copy is written
 //! to a temporary file beside the destination in one transaction, compacted (`VACUUM`, rollback
@@ -42,7 +44,7 @@ pub struct Exported {
     pub sweeps: usize,
     /// Cases in the copy (done and failed).
     pub cases: usize,
-    /// Cases of the chosen sweeps left out because they have not finished.
+    /// Cases of the chosen sweeps that have not finished: listed as `pending`, without results.
     pub unfinished: usize,
     /// Sample rows in the source for the exported cases.
     pub samples_in: usize,
@@ -182,6 +184,16 @@ fn write_copy(
     )
     .map_err(&serr)?;
     let case_list = list(&cases);
+    // the sweeps' current cases not finished: listed, without results
+    let open: BTreeSet<i64> = ids(
+        src,
+        &format!(
+            "SELECT case_id FROM sweep_cases WHERE sweep_id IN ({sweep_list})
+             AND case_id NOT IN ({case_list})"
+        ),
+    )
+    .map_err(&serr)?;
+    let open_list = list(&open);
     let run_ids = ids(
         src,
         &format!(
@@ -193,6 +205,7 @@ fn write_copy(
     let mut sweep_ids = chosen.clone();
     for sql in [
         format!("SELECT DISTINCT sweep_id FROM cases WHERE id IN ({case_list})"),
+        format!("SELECT DISTINCT sweep_id FROM cases WHERE id IN ({open_list})"),
         format!(
             "SELECT DISTINCT sweep_id FROM runs WHERE id IN ({})",
             list(&run_ids)
@@ -214,6 +227,20 @@ fn write_copy(
         "sweep_cases",
         &format!("sweep_id IN ({sweep_list}) AND case_id IN ({case_list})"),
     )?;
+    copy("cases", &format!("id IN ({open_list})"))?;
+    copy(
+        "sweep_cases",
+        &format!("sweep_id IN ({sweep_list}) AND case_id IN ({open_list})"),
+    )?;
+    tx.execute(
+        &format!(
+            "UPDATE cases SET status = 'pending', owner = NULL, owner_pid = NULL, run_id = NULL,
+             started_at = NULL, finished_at = NULL, wall_s = NULL, steps = NULL, t_reached = NULL
+             WHERE id IN ({open_list})"
+        ),
+        [],
+    )
+    .map_err(&derr)?;
     copy("outcomes", &format!("case_id IN ({case_list})"))?;
     let (mut samples_in, mut samples_out) = (0, 0);
     for &case in &cases {
@@ -234,7 +261,7 @@ fn write_copy(
         };
         samples_out += copy("samples", &filter)?;
     }
-    let unfinished = linked.len() - cases.len();
+    let unfinished = open.len();
     tx.commit().map_err(&derr)?;
     dest.conn.execute_batch("VACUUM").map_err(&derr)?;
     Ok(Exported {
