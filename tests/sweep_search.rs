@@ -16,7 +16,6 @@ use xpflow::cli::sweep_cmds::{run_query_to, run_sweep_with, QueryArgs, QueryWhat
 use xpflow::config::{CaseSpec, SweepSpec};
 use xpflow::observe::OutcomeKind;
 use xpflow::store::{Format, Store, Table};
-use xpflow::sweep::progress::ProgressMode;
 use xpflow::sweep::search::{boundaries_table, run_search, SearchSummary};
 use xpflow::sweep::{case_id, FakeBehaviour, FakeRunner, SweepOptions};
 
@@ -84,10 +83,7 @@ fn parse(text: &str, dir: &Path) -> SweepSpec {
 }
 
 fn opts(db: &Path) -> SweepOptions {
-    let mut o = SweepOptions::new(db.to_path_buf());
-    o.jobs = 2;
-    o.progress = ProgressMode::Quiet;
-    o
+    common::quiet_options(db)
 }
 
 fn search(sweep: &SweepSpec, runner: &FakeRunner, db: &Path) -> SearchSummary {
@@ -403,11 +399,7 @@ fn on_a_cluster_each_round_is_a_submission_planned_from_the_merged_database() {
     let file = dir.join("search.toml");
     let db = dir.join("r.db");
     let runner = FakeRunner::new(behaviour);
-    let mut args = common::sweep_args(&file, &db);
-    args.quiet = false;
-    args.slurm.slurm = true;
-    args.slurm.submission = Some(dir.join("sub"));
-    let rounds = common::cluster_rounds(&mut args, &runner, "search cluster: over", s.rounds + 1);
+    let rounds = common::cluster_rounds(&file, &db, &runner, "search cluster: over", s.rounds + 1);
     assert_eq!(rounds.len(), s.rounds);
     assert_eq!(finished_ids(&db), finished_ids(&local));
     let render = |db: &Path| brackets(db).render(xpflow::store::Format::Csv);

@@ -15,7 +15,6 @@ use xpflow::cli::sweep_cmds::run_sweep_with;
 use xpflow::config::{CaseSpec, SweepSpec};
 use xpflow::observe::OutcomeKind;
 use xpflow::store::Store;
-use xpflow::sweep::progress::ProgressMode;
 use xpflow::sweep::tries::{lines, run_tries, TriesSummary};
 use xpflow::sweep::{expand, run_sweep, FakeBehaviour, FakeRunner, SweepOptions};
 
@@ -62,10 +61,7 @@ fn parse(text: &str, dir: &Path) -> SweepSpec {
 }
 
 fn opts(db: &Path) -> SweepOptions {
-    let mut o = SweepOptions::new(db.to_path_buf());
-    o.jobs = 2;
-    o.progress = ProgressMode::Quiet;
-    o
+    common::quiet_options(db)
 }
 
 fn tries(sweep: &SweepSpec, runner: &FakeRunner, opts: &SweepOptions) -> TriesSummary {
@@ -267,11 +263,7 @@ fn on_a_cluster_each_round_is_a_submission_planned_from_the_merged_database() {
     std::fs::write(&file, SWEEP).unwrap();
     let db = dir.join("r.db");
     let runner = FakeRunner::new(behaviour);
-    let mut args = common::sweep_args(&file, &db);
-    args.quiet = false;
-    args.slurm.slurm = true;
-    args.slurm.submission = Some(dir.join("sub"));
-    let sizes = common::cluster_rounds(&mut args, &runner, "tries tries: over", 4);
+    let sizes = common::cluster_rounds(&file, &db, &runner, "tries tries: over", 4);
     assert_eq!(
         sizes,
         [3, 2, 1],

@@ -15,7 +15,9 @@ use crate::store::query::Filter;
 use crate::store::Store;
 use crate::sweep::engine::SweepError;
 use crate::sweep::search::replay::Outcomes;
-use crate::sweep::search::{boundaries_table, replay, run_search as search, SearchError};
+use crate::sweep::search::{
+    boundaries_table, replay, run_search as search, stored_outcomes, SearchError,
+};
 use crate::sweep::CaseRunner;
 
 /// Runs (or resumes) the search of `spec`, or lists its coarse round with `--dry-run`.
@@ -174,13 +176,7 @@ fn slurm_round(
     out: &mut dyn Write,
 ) -> anyhow::Result<ExitCode> {
     let db = sweep_options(args, spec).db;
-    let lookup = &mut |ids: &[&str]| -> Result<Outcomes, SearchError> {
-        if db.exists() {
-            Ok(Store::open_read_only(&db)?.outcomes_of(ids)?)
-        } else {
-            Ok(Outcomes::new())
-        }
-    };
+    let lookup = &mut |ids: &[&str]| stored_outcomes(&db, ids).map_err(SearchError::from);
     let state = match replay(spec, args.max_cases, lookup) {
         Ok(s) => s,
         Err(SearchError::Config(e)) => return invalid(&e),

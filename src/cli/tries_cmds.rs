@@ -11,8 +11,8 @@ use super::sweep_cmds::{
     invalid, list_cases, print_resolved, sweep_options, SweepArgs, EXIT_INVALID,
 };
 use crate::config::{PlannedCase, SweepSpec};
-use crate::store::Store;
 use crate::sweep::engine::SweepError;
+use crate::sweep::search::stored_outcomes;
 use crate::sweep::tries::{lines, replay, run_tries, TryLine};
 use crate::sweep::CaseRunner;
 
@@ -51,7 +51,7 @@ pub(super) fn run(
         let db = sweep_options(args, spec).db;
         if db.exists() {
             // where the tries stand in the database (a reader: read only, writes nothing)
-            let lookup = &mut |ids: &[&str]| Store::open_read_only(&db)?.outcomes_of(ids);
+            let lookup = &mut |ids: &[&str]| stored_outcomes(&db, ids);
             match replay(spec, cases, lines.clone(), false, lookup) {
                 Ok(state) => {
                     let met = state.lines.iter().filter(|l| l.met.is_some()).count();
@@ -142,7 +142,7 @@ pub(super) fn run(
 }
 
 /// `--slurm`: submits the current round of tries (each line's first try not finished in the
-/// database) as a job array; the sweep's cases in the database become the tries so far. The
+/// database) as a job array; the sweep's cases in the database become its registered tries. The
 /// next round is planned from the merged database by running the command again with `--resume`.
 fn slurm_round(
     args: &SweepArgs,
@@ -153,13 +153,7 @@ fn slurm_round(
     out: &mut dyn Write,
 ) -> anyhow::Result<ExitCode> {
     let db = sweep_options(args, spec).db;
-    let lookup = &mut |ids: &[&str]| {
-        if db.exists() {
-            Store::open_read_only(&db)?.outcomes_of(ids)
-        } else {
-            Ok(Default::default())
-        }
-    };
+    let lookup = &mut |ids: &[&str]| stored_outcomes(&db, ids);
     let state = match replay(spec, cases, lines.to_vec(), args.retry_failed, lookup) {
         Ok(s) => s,
         Err(e) if e.is_bad_input() => return invalid(&e),

@@ -96,6 +96,21 @@ pub enum OutcomeKind {
 }
 
 impl OutcomeKind {
+    /// Every kind, in the order of the stored names' CHECK constraint.
+    pub const ALL: [OutcomeKind; 11] = [
+        OutcomeKind::String,
+        OutcomeKind::Repel,
+        OutcomeKind::Pass,
+        OutcomeKind::Jammed,
+        OutcomeKind::WallContact,
+        OutcomeKind::SurfaceContact,
+        OutcomeKind::Exited,
+        OutcomeKind::Migrated,
+        OutcomeKind::Steady,
+        OutcomeKind::Diverged,
+        OutcomeKind::Timeout,
+    ];
+
     /// The stored name, e.g. `wall_contact`.
     pub fn as_str(self) -> &'static str {
         match self {

@@ -187,11 +187,11 @@ pub fn run_task(opts: &TaskOptions, runner: &dyn CaseRunner) -> Result<TaskOutco
             .into_iter()
             .find(|c| c.id == id)
             .ok_or_else(not_in_sweep)?;
-        Some(plan_labelled(&spec, c.index, c.label, c.params)?)
+        // planned again from the sweep file: another id if its base was edited since
+        Some(plan_labelled(&spec, c.index, c.label, c.params)?).filter(|c| c.id == id)
     } else {
         expand(&spec)?.into_iter().find(|c| c.id == id)
     }
-    .filter(|c| c.id == id)
     .ok_or_else(not_in_sweep)?;
     let published = shard_path(&opts.shards, &id);
     if published.is_file() && shard_cases(&published)?.iter().any(|c| c.status == "done") {

@@ -15,7 +15,7 @@ use std::collections::HashMap;
 use serde_json::Value;
 
 use super::engine::{run_sweep, SweepError, SweepOptions};
-use super::expand::canonical_json;
+use super::expand::{canonical_json, swept_axes, Labels};
 use super::runner::CaseRunner;
 use super::search::replay::Outcomes;
 use super::search::stored_outcomes;
@@ -36,6 +36,16 @@ pub struct TryLine {
     pub current: Option<usize>,
 }
 
+impl TryLine {
+    /// Its tries up to and including `last` (all of them for `None`).
+    fn through(&self, last: Option<usize>) -> &[usize] {
+        let n = last
+            .and_then(|c| self.tries.iter().position(|&t| t == c))
+            .map_or(self.tries.len(), |p| p + 1);
+        &self.tries[..n]
+    }
+}
+
 /// Where a sweep with tries stands.
 #[derive(Debug, Clone, PartialEq)]
 pub struct TriesState {
@@ -54,35 +64,18 @@ impl TriesState {
     /// The cases tried so far, the current round's included: on each line its tries up to the
     /// one that met `until` or the current one, all of them when none met it; in grid order.
     pub fn tried(&self) -> Vec<usize> {
-        let mut v: Vec<usize> = self
-            .lines
-            .iter()
-            .flat_map(|l| {
-                let last = l.met.or(l.current);
-                let n = last.map_or(l.tries.len(), |c| {
-                    l.tries.iter().position(|&t| t == c).map_or(0, |p| p + 1)
-                });
-                l.tries[..n].iter().copied()
-            })
-            .collect();
-        v.sort_unstable();
-        v
+        self.collect(|l| l.through(l.met.or(l.current)))
     }
 
     /// The sweep's cases as the database lists them: on a line that met `until` its tries up to
     /// that one, on every other line all its tries (those not run yet pending), so that a line
     /// reads as without `until` only once every try has run; in grid order.
     pub fn registered(&self) -> Vec<usize> {
-        let mut v: Vec<usize> = self
-            .lines
-            .iter()
-            .flat_map(|l| {
-                let n = l.met.map_or(l.tries.len(), |c| {
-                    l.tries.iter().position(|&t| t == c).map_or(0, |p| p + 1)
-                });
-                l.tries[..n].iter().copied()
-            })
-            .collect();
+        self.collect(|l| l.through(l.met))
+    }
+
+    fn collect(&self, per_line: impl Fn(&TryLine) -> &[usize]) -> Vec<usize> {
+        let mut v: Vec<usize> = self.lines.iter().flat_map(per_line).copied().collect();
         v.sort_unstable();
         v
     }
@@ -108,13 +101,15 @@ pub fn lines(sweep: &SweepSpec, cases: &[PlannedCase]) -> Result<Vec<TryLine>, C
     };
     check_kind(sweep, spec)?;
     let tried = tried_paths(sweep, spec);
+    let labels = Labels::new(&swept_axes(sweep));
     let mut by_rest: HashMap<String, usize> = HashMap::new();
     let mut lines: Vec<TryLine> = Vec::new();
     for (index, case) in cases.iter().enumerate() {
-        let rest: Vec<&(String, Value)> = case
+        let rest: Vec<(String, Value)> = case
             .params
             .iter()
             .filter(|(path, _)| !tried.contains(path))
+            .cloned()
             .collect();
         let key = canonical_json(&Value::Array(
             rest.iter()
@@ -123,7 +118,7 @@ pub fn lines(sweep: &SweepSpec, cases: &[PlannedCase]) -> Result<Vec<TryLine>, C
         ));
         let line = *by_rest.entry(key).or_insert_with(|| {
             lines.push(TryLine {
-                label: label_without(&case.label, &tried),
+                label: labels.of(&rest),
                 tries: Vec::new(),
                 met: None,
                 current: None,
@@ -221,19 +216,20 @@ pub fn run_tries(
     let state = loop {
         let lookup = &mut |ids: &[&str]| stored_outcomes(&opts.db, ids);
         let state = replay(sweep, cases, template.to_vec(), retry_failed, lookup)?;
+        // the sweep's cases in the store: every try of a line still trying (the later ones
+        // pending), up to the one that met `until` on the others (also when nothing is left to
+        // run: a grid run of the same file registered every case); the round runs the current
+        register(&opts.db, sweep, cases, &state)?;
         if state.finished() {
             break state;
         }
-        // the sweep's cases in the store: every try of a line still trying (the later ones
-        // pending), up to the one that met `until` on the others; the round runs the current ones
-        register(&opts.db, sweep, cases, &state)?;
         let round: Vec<PlannedCase> = state.round().iter().map(|&i| cases[i].clone()).collect();
         summary.rounds += 1;
         log(&format!(
             "tries {}: round {}, {} line(s) still trying, {} met",
             sweep.name,
             summary.rounds,
-            state.round().len(),
+            round.len(),
             state.lines.iter().filter(|l| l.met.is_some()).count()
         ));
         let round_opts = SweepOptions {
@@ -251,11 +247,6 @@ pub fn run_tries(
             break state;
         }
     };
-    if summary.rounds == 0 {
-        // nothing left to run: the sweep's cases in the store become its tries all the same
-        // (a grid run of the same file registered every case)
-        register(&opts.db, sweep, cases, &state)?;
-    }
     summary.met = state.lines.iter().filter(|l| l.met.is_some()).count();
     summary.finished = state.finished();
     summary.tried = state.tried().len();
@@ -292,35 +283,15 @@ fn tried_paths(sweep: &SweepSpec, spec: &TriesSpec) -> Vec<String> {
         )
 }
 
-/// A case label without the tried fields (`name=value` words whose name is a tried path's last
-/// segment or the path itself).
-fn label_without(label: &str, tried: &[String]) -> String {
-    let names: Vec<&str> = tried
-        .iter()
-        .flat_map(|p| [p.as_str(), p.rsplit('.').next().unwrap_or(p)])
-        .collect();
-    let kept: Vec<&str> = label
-        .split(' ')
-        .filter(|w| !w.split_once('=').is_some_and(|(n, _)| names.contains(&n)))
-        .collect();
-    if kept.is_empty() {
-        "base".into()
-    } else {
-        kept.join(" ")
-    }
-}
-
 /// `until` names an outcome kind the classifier can give.
 fn check_kind(sweep: &SweepSpec, spec: &TriesSpec) -> Result<(), ConfigError> {
     if let Until::Kind(k) = &spec.until {
-        if serde_json::from_value::<OutcomeKind>(Value::String(k.clone())).is_err() {
+        if !OutcomeKind::ALL.iter().any(|o| o.as_str() == k) {
+            let kinds: Vec<&str> = OutcomeKind::ALL.iter().map(|o| o.as_str()).collect();
             return Err(ConfigError::Sweep {
                 file: sweep.file.clone(),
                 field: "tries.until".into(),
-                message: format!(
-                    "`{k}` is not an outcome kind (string, repel, pass, jammed, wall_contact, \
-                     surface_contact, exited, migrated, steady, diverged, timeout)"
-                ),
+                message: format!("`{k}` is not an outcome kind ({})", kinds.join(", ")),
             });
         }
     }
@@ -378,6 +349,8 @@ mod tests {
             (state.round(), state.tried()),
             (vec![0, 2, 4], vec![0, 2, 4])
         );
+        // no line has met `until`: the database lists every try
+        assert_eq!(state.registered(), (0..6).collect::<Vec<_>>());
         assert!(!state.finished());
     }
 }

@@ -111,22 +111,38 @@ pub fn query(
     (code, String::from_utf8(out).unwrap())
 }
 
-/// The rounds of a `[search]` or `[tries]` sweep through the cluster path without a scheduler:
-/// `xpflow sweep --slurm [--resume]` (`args`, with `--slurm` and its submission directory set)
-/// writes a round, every task of its manifest runs (`xpflow run-case`) and their shards are
-/// merged into the database, until the command answers `over` (a line containing it). Returns
-/// the number of cases of each round.
+/// The engine's options for `db`: two jobs, no progress output.
+#[allow(dead_code)]
+pub fn quiet_options(db: &Path) -> xpflow::sweep::SweepOptions {
+    let mut o = xpflow::sweep::SweepOptions::new(db.to_path_buf());
+    o.jobs = 2;
+    o.progress = xpflow::sweep::progress::ProgressMode::Quiet;
+    o
+}
+
+/// The rounds of the `[search]` or `[tries]` sweep `file` into `db` through the cluster path
+/// without a scheduler: `xpflow sweep --slurm [--resume]` (submission directory `sub` beside
+/// `db`) writes a round, every task of its manifest runs (`xpflow run-case`) and their shards are
+/// merged into the database, until the command answers `over` (a line containing it), at most
+/// `most` rounds. Returns the number of cases of each round.
 #[allow(dead_code)]
 pub fn cluster_rounds(
-    args: &mut xpflow::cli::sweep_cmds::SweepArgs,
+    file: &Path,
+    db: &Path,
     runner: &xpflow::sweep::FakeRunner,
     over: &str,
     most: usize,
 ) -> Vec<usize> {
     use std::process::ExitCode;
     use xpflow::cli::cluster::{merge_to, run_case_with, MergeArgs, RunCaseArgs};
-    let sub = xpflow::sweep::slurm::Submission::new(args.slurm.submission.as_ref().unwrap());
-    let db = args.db.clone().unwrap();
+    let mut args = sweep_args(file, db);
+    args.quiet = false;
+    args.slurm.slurm = true;
+    let sub_dir = db.parent().unwrap().join("sub");
+    args.slurm.submission = Some(sub_dir.clone());
+    let args = &mut args;
+    let sub = xpflow::sweep::slurm::Submission::new(&sub_dir);
+    let db = db.to_path_buf();
     let mut sizes = Vec::new();
     for round in 1..=most {
         args.slurm.resume = round > 1;

@@ -401,3 +401,26 @@ fn an_extrusion_is_steady_by_its_surface_and_a_particle_runs_to_the_outflow() {
     let reason = o.final_state["reason"].as_str().unwrap();
     assert!(reason.contains("outside the extrusion's fluid"), "{reason}");
 }
+
+#[test]
+fn all_lists_every_kind_once_with_its_stored_name() {
+    for (i, k) in OutcomeKind::ALL.iter().enumerate() {
+        // exhaustive: a new kind does not compile until it has its place in ALL
+        let place = match k {
+            OutcomeKind::String => 0,
+            OutcomeKind::Repel => 1,
+            OutcomeKind::Pass => 2,
+            OutcomeKind::Jammed => 3,
+            OutcomeKind::WallContact => 4,
+            OutcomeKind::SurfaceContact => 5,
+            OutcomeKind::Exited => 6,
+            OutcomeKind::Migrated => 7,
+            OutcomeKind::Steady => 8,
+            OutcomeKind::Diverged => 9,
+            OutcomeKind::Timeout => 10,
+        };
+        assert_eq!(i, place);
+        let stored = serde_json::to_value(k).unwrap();
+        assert_eq!(stored, serde_json::json!(k.as_str()));
+    }
+}

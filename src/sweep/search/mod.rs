@@ -59,7 +59,9 @@ pub struct SearchSummary {
     pub elsewhere: usize,
 }
 
-/// Stored outcomes of `ids` in the database at `db` (none when it does not exist yet).
+/// Stored outcomes of `ids` in the database at `db` (none when it does not exist yet), read
+/// without writing: a search or tries sweep plans its rounds from it, and so do the readers
+/// (`--dry-run`) and the cluster path's submissions.
 pub fn stored_outcomes(
     db: &Path,
     ids: &[&str],
@@ -67,7 +69,7 @@ pub fn stored_outcomes(
     if !db.exists() {
         return Ok(HashMap::new());
     }
-    Store::open_existing(db)?.outcomes_of(ids)
+    Store::open_read_only(db)?.outcomes_of(ids)
 }
 
 /// Runs (or resumes) the search of `sweep` round by round until it is over; `log` gets one line
