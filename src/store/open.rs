@@ -173,8 +173,17 @@ impl Store {
                 path: path.to_path_buf(),
                 source,
             })?;
-        match kind(&conn, path)? {
-            Kind::Xpflow => Store::configure(conn, path),
+        // deleted between the check above and the reads and settings below: SQLite reports an
+        // I/O error, which is the vanished file
+        let gone_meanwhile = |e: StoreError| {
+            if path.exists() {
+                e
+            } else {
+                vanished("the file is gone")
+            }
+        };
+        match kind(&conn, path).map_err(gone_meanwhile)? {
+            Kind::Xpflow => Store::configure(conn, path).map_err(gone_meanwhile),
             Kind::Empty => Err(vanished("the file no longer holds xpflow's tables")),
         }
     }
