@@ -65,8 +65,9 @@ pub enum MovingError {
         /// Cause.
         reason: String,
     },
-    /// A free surface rose out of the mesh (its swell outgrew the mesh height).
-    #[error("step {step}: the free surface left the mesh at x = {x} (H = {height}); raise geometry.extrusion.height")]
+    /// A free surface left the mesh: it rose above the mesh top (the swell outgrew the mesh
+    /// height) or fell to the symmetry line (a kinematic step that is unstable there).
+    #[error("step {step}: the free surface left the mesh at x = {x:.4} (H = {height:.4}; its last kinematic step moved it by up to {moved:.2e}): {}", escape_cause(*height))]
     SurfaceEscaped {
         /// Step.
         step: usize,
@@ -74,6 +75,8 @@ pub enum MovingError {
         x: f64,
         /// Its height there.
         height: f64,
+        /// max|Hⁿ⁺¹ − Hⁿ| of the last kinematic step (infinite before the first).
+        moved: f64,
     },
     /// Inconsistent set-up.
     #[error("{0}")]
@@ -93,6 +96,19 @@ impl MovingError {
             MovingError::SurfaceEscaped { .. } => "advance_surface",
             MovingError::Flow(_) | MovingError::Setup(_) => "set-up",
         }
+    }
+}
+
+/// What to do about a surface that left the mesh at `height`: above the mesh, raise it; at or
+/// below the symmetry line nothing physical brings it there (the swell is positive), so the
+/// kinematic step has gone unstable.
+fn escape_cause(height: f64) -> &'static str {
+    if height > 0.0 {
+        "raise geometry.extrusion.height"
+    } else {
+        "it fell through the symmetry line: the kinematic step is unstable (an oscillation of H \
+         from the die exit's stick-slip corner that grew; docs/validation.md, the §6.5 particle at \
+         Wi = 0.5)"
     }
 }
 

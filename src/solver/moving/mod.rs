@@ -217,10 +217,14 @@ impl<D: Confinement + Clone + 'static> MovingParticles<D> {
         let step = self.flow.history().steps() + 1;
         let (expected, x_pred) = self.predict();
         let dt_prev = self.last_dt();
-        let surface = self
-            .surface
-            .as_ref()
-            .map(|s| s.predicted(self.dt(), dt_prev));
+        let surface = match &self.surface {
+            Some(s) => {
+                let predicted = s.predicted(self.dt(), dt_prev);
+                s.inside(&predicted, step)?;
+                Some(predicted)
+            }
+            None => None,
+        };
         if let Some(c) = self.contact(&x_pred, surface.as_ref()) {
             return Ok(StepOutcome::Contact(c));
         }

@@ -140,8 +140,9 @@ impl Surface {
     /// Ĥⁿ⁺¹ = `predicted` becomes the fields' configuration. Returns max|Hⁿ⁺¹ − Hⁿ|.
     ///
     /// # Errors
-    /// [`MovingError::SurfaceEscaped`] if a surface point has left the mesh (the swell outgrew
-    /// the mesh height).
+    /// [`MovingError::SurfaceEscaped`] if a point of the predicted or the new surface has left
+    /// the mesh: above its top (the swell outgrew the mesh height) or at or below the symmetry
+    /// line (an unstable step; the stretch of the next temporary ALE map would fold the mesh).
     pub(super) fn advance(
         &mut self,
         mesh: &Mesh,
@@ -150,11 +151,40 @@ impl Surface {
         [dt, dt_prev, tau_dt]: [f64; 3],
         step: usize,
     ) -> Result<f64, MovingError> {
-        let u = velocity_on(mesh, velocity, &predicted, self.extrusion.top)
-            .map_err(|(x, height)| MovingError::SurfaceEscaped { step, x, height })?;
+        let moved = self.change;
+        let escaped = |(x, height)| MovingError::SurfaceEscaped {
+            step,
+            x,
+            height,
+            moved,
+        };
+        let u = velocity_on(mesh, velocity, &predicted, self.extrusion.top).map_err(escaped)?;
         self.fields_at = predicted;
         self.change = self.height.advance(&u, dt, dt_prev, tau_dt);
+        self.inside(&self.height, step)?;
         Ok(self.change)
+    }
+
+    /// `surface` (Hⁿ⁺¹, or the predicted Ĥⁿ⁺¹ before the step's ALE map uses it) lies between
+    /// the symmetry line and the mesh top.
+    ///
+    /// # Errors
+    /// [`MovingError::SurfaceEscaped`] at its first node outside.
+    pub(super) fn inside(&self, surface: &HeightFunction, step: usize) -> Result<(), MovingError> {
+        let top = self.extrusion.top;
+        match surface
+            .profile()
+            .into_iter()
+            .find(|&[_, h]| h <= 0.0 || h >= top)
+        {
+            Some([x, height]) => Err(MovingError::SurfaceEscaped {
+                step,
+                x,
+                height,
+                moved: self.change,
+            }),
+            None => Ok(()),
+        }
     }
 
     /// The state to save.
@@ -265,6 +295,56 @@ mod tests {
             if x <= 0.0 {
                 assert_eq!(stretch[v], [0.0, 0.0]);
             }
+        }
+    }
+
+    /// A kinematic step that takes the surface through the symmetry line or above the mesh is
+    /// refused where it happens, naming the node, the height and the cause — before the next
+    /// step's temporary ALE map folds the mesh on it (the §6.5 particle at Wi = 0.5 failed there
+    /// with "point not found in the displaced mesh: reduce Δt", which named neither).
+    #[test]
+    fn a_surface_that_leaves_the_mesh_is_refused_with_its_cause() {
+        let e = Extrusion {
+            h0: 1.0,
+            die_length: 1.0,
+            extrudate_length: 1.0,
+            flow_rate: 1.0,
+            top: 2.0,
+        };
+        let mesh = e.mesh(10, 10);
+        for (u_y, below) in [(-100.0, true), (100.0, false)] {
+            let mut s = Surface::new(&mesh, e).unwrap();
+            let velocity = vec![[1.0, u_y]; mesh.n_nodes()];
+            let predicted = s.predicted(0.1, 0.1);
+            let err = s
+                .advance(&mesh, &velocity, predicted, [0.1, 0.1, 0.1], 7)
+                .unwrap_err();
+            let MovingError::SurfaceEscaped {
+                step, x, height, ..
+            } = err
+            else {
+                panic!("{err}");
+            };
+            assert_eq!(step, 7);
+            assert_eq!(
+                x,
+                s.height().nodes()[1],
+                "the first node past the pinned one"
+            );
+            assert!(
+                (height <= 0.0) == below && (height >= 2.0) != below,
+                "H = {height}"
+            );
+            let cause = if below {
+                "symmetry line"
+            } else {
+                "geometry.extrusion.height"
+            };
+            assert!(err.to_string().contains(cause), "{err}");
+            assert!(
+                s.inside(&s.height().clone(), 8).is_err(),
+                "the predicted check"
+            );
         }
     }
 }
