@@ -108,7 +108,8 @@ pub fn run_case(case: &CaseSpec, obs: &mut dyn CaseObserver) -> CaseResult {
             Err(e) => {
                 // a failed solve from touching particles is their contact, not a fault
                 if let Some(c) = sim.touching().filter(|_| !non_finite_state(&e)) {
-                    let error = format!("step {}, {}: {e}", sim.steps() + 1, e.phase());
+                    let step = e.step().unwrap_or(sim.steps() as usize + 1);
+                    let error = format!("step {step}, {}: {e}", e.phase());
                     obs.on_contact_at_failure(&c, sim.time(), &error);
                     return finished(&sim);
                 }
@@ -207,7 +208,11 @@ fn ended_by(e: MovingError, steps: u64, t: f64) -> CaseResult {
         }
     } else {
         RunStatus::Failed {
-            error: format!("step {}, {}: {e}", steps + 1, e.phase()),
+            error: format!(
+                "step {}, {}: {e}",
+                e.step().unwrap_or(steps as usize + 1),
+                e.phase()
+            ),
         }
     };
     CaseResult {

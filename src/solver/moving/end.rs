@@ -84,6 +84,20 @@ pub enum MovingError {
 }
 
 impl MovingError {
+    /// The step that failed, where the error knows it (a flow solve names its own; the set-up
+    /// has none).
+    pub fn step(&self) -> Option<usize> {
+        match self {
+            MovingError::Cut { step, .. }
+            | MovingError::Ale { step, .. }
+            | MovingError::NonFinite { step }
+            | MovingError::Jumped { step, .. }
+            | MovingError::Follow { step, .. }
+            | MovingError::SurfaceEscaped { step, .. } => Some(*step),
+            MovingError::Flow(_) | MovingError::Setup(_) => None,
+        }
+    }
+
     /// The phase of the time step that failed: `set-up`, `ale_map`, `classify`, `solve_flow`,
     /// `solve_stress`, `advance_surface` or `correct`.
     pub fn phase(&self) -> &'static str {
