@@ -37,6 +37,13 @@ fn in_the_die_the_particle_rides_the_fully_developed_flow() {
     assert!(p.u > LAG.0 && p.u < LAG.1, "u = {}", p.u);
     assert!(p.v.abs() < 0.05, "v = {}", p.v);
     assert!(-p.omega > SPIN.0 && -p.omega < SPIN.1, "ω = {}", p.omega);
+    // the narrowest gap is the film to the die wall, 1 − (y + a) ≈ 0.2 = 2 rows of 0.1 (not the
+    // 1.2 to the mesh top, which bounds no fluid, nor the 0.4 to the symmetry line)
+    let film = s.gap_elements.expect("a particle");
+    assert!(
+        (film - 10.0 * (1.0 - p.y - 0.2)).abs() < 1e-9,
+        "{film} elements"
+    );
     let surface = sim.stepper().surface().unwrap();
     assert_eq!(surface.heights()[0], 1.0, "pinned at the die exit");
     assert!(surface.max() > 1.0, "swelling: {}", surface.max());

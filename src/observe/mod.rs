@@ -45,8 +45,9 @@ pub struct Sample {
     pub t: f64,
     /// One state per particle, in the order of [`crate::config::CaseSpec::initial_positions`].
     pub particles: Vec<ParticleState>,
-    /// Elements across the narrowest gap (particle–particle or particle–wall) on the mesh of
-    /// this step ([`crate::mesh::resolution`]); `None` where no mesh is known (the fake runner,
+    /// Elements across the narrowest gap (particle–particle, particle–wall, or in an extrusion
+    /// particle–die wall or –free surface) on the mesh of this step
+    /// ([`crate::mesh::resolution`]); `None` where no mesh is known (the fake runner,
     /// samples read back from a database).
     #[serde(default)]
     pub gap_elements: Option<f64>,

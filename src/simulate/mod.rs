@@ -24,9 +24,10 @@ pub use undisturbed::{Undisturbed, UndisturbedFlow};
 use crate::config::{CaseSpec, Geometry};
 use crate::geometry::Confinement;
 use crate::geometry::{ConfinedShear, CouetteError, CouetteGeometry, RotatingCouette, SetUp};
-use crate::mesh::resolution::{elements_between, narrowest_gap};
+use crate::mesh::resolution::{elements_between, gaps, Between};
 use crate::observe::{FieldSnapshot, Sample, SurfaceSample};
 use crate::particles::Contact;
+use crate::solver::free_surface;
 use crate::solver::moving::{
     ComputationalMesh, MovingCheckpoint, MovingError, MovingParticles, StepOutcome,
 };
@@ -318,13 +319,12 @@ impl Simulation {
     /// The particles now, in the lab frame.
     pub fn sample(&self) -> Sample {
         let state = self.stepper.state();
-        let gap = narrowest_gap(self.stepper.flow().mesh(), &state.x, self.radius);
         let mut sample = frame::sample(
             self.steps(),
             self.time(),
             state,
             self.frame,
-            gap.map(|g| g.elements),
+            self.narrowest_gap_elements(),
         );
         if let Some(u) = &self.undisturbed {
             for p in &mut sample.particles {
@@ -338,6 +338,36 @@ impl Simulation {
             });
         }
         sample
+    }
+
+    /// The narrowest gap of the particles now, in elements (`mesh::resolution::gaps`): between
+    /// them and to the walls — in an extrusion to the symmetry line and to the fluid's upper
+    /// boundary, the die wall or the free surface, instead of the mesh top, which bounds no
+    /// fluid there. `None` without particles.
+    fn narrowest_gap_elements(&self) -> Option<f64> {
+        let mesh = self.stepper.flow().mesh();
+        let x = &self.stepper.state().x;
+        let radii = vec![self.radius; x.len()];
+        let surface = self.stepper.surface();
+        let walls = gaps(mesh, x, &radii)
+            .into_iter()
+            .filter(|g| surface.is_none() || !matches!(g.between, Between::TopWall(_)))
+            .map(|g| g.elements);
+        let upper = surface.into_iter().flat_map(|s| {
+            x.iter().map(move |&c| {
+                let (q, d) = free_surface::nearest_point(s, c);
+                if d <= self.radius {
+                    return 0.0;
+                }
+                // the particle's point nearest to q
+                let p = [
+                    c[0] + self.radius * (q[0] - c[0]) / d,
+                    c[1] + self.radius * (q[1] - c[1]) / d,
+                ];
+                elements_between(mesh, p, q)
+            })
+        });
+        walls.chain(upper).reduce(f64::min)
     }
 
     /// A contact of the particles as they are now (after the last step taken) at any overlap,

@@ -298,24 +298,33 @@ pub fn velocity_on(
 }
 
 /// The gap between a particle (centre `c`, radius `a`) and the surface: the distance from the
-/// centre to the nearest point of the P1 surface less the radius (upstream of the die exit the
-/// surface is the die wall's level H0, which the set-up's contact test covers).
+/// centre to the nearest point of the P1 surface or the die wall less the radius
+/// ([`nearest_point`]).
 pub fn surface_gap(surface: &HeightFunction, c: [f64; 2], a: f64) -> f64 {
+    nearest_point(surface, c).1 - a
+}
+
+/// The point of the fluid's upper boundary nearest to `c`, and its distance: the die wall y = H0
+/// upstream of the die exit, the P1 surface downstream.
+pub fn nearest_point(surface: &HeightFunction, c: [f64; 2]) -> ([f64; 2], f64) {
     let (x, h) = (surface.nodes(), surface.heights());
-    let mut distance = f64::INFINITY;
+    // the die wall: the segment up to the exit (x[0] = 0), at H0
+    let wall = [c[0].min(x[0]), surface.h0()];
+    let mut best = (wall, (c[0] - wall[0]).hypot(c[1] - wall[1]));
     for i in 0..x.len() - 1 {
-        // segments beyond the reach of the particle cannot be the nearest
-        if x[i + 1] < c[0] - 2.0 * a - (h[i + 1] - c[1]).abs()
-            || x[i] > c[0] + 2.0 * a + (h[i] - c[1]).abs()
-        {
+        // a segment whose x-range lies further than the nearest so far cannot be nearer
+        if x[i + 1] < c[0] - best.1 || x[i] > c[0] + best.1 {
             continue;
         }
         let (dx, dh) = (x[i + 1] - x[i], h[i + 1] - h[i]);
         let s = (((c[0] - x[i]) * dx + (c[1] - h[i]) * dh) / (dx * dx + dh * dh)).clamp(0.0, 1.0);
         let p = [x[i] + s * dx, h[i] + s * dh];
-        distance = distance.min((c[0] - p[0]).hypot(c[1] - p[1]));
+        let d = (c[0] - p[0]).hypot(c[1] - p[1]);
+        if d < best.1 {
+            best = (p, d);
+        }
     }
-    distance - a
+    best
 }
 
 /// The temporary ALE map of a free surface (thesis §6.3.3) carrying the history from the fluid
@@ -469,6 +478,17 @@ mod tests {
         }
         // a flat surface at 1: the gap from below and the corner of a slope
         assert!((surface_gap(&old, [1.0, 0.8], 0.1) - 0.1).abs() < TOL);
+        // upstream of the exit the die wall y = H0 bounds the fluid; next to the exit the
+        // nearer of the wall and the surface
+        let (q, d) = nearest_point(&old, [-0.5, 0.7]);
+        assert!(q == [-0.5, 1.0] && (d - 0.3).abs() < TOL, "{q:?} {d}");
+        // (this surface starts at x = −0.5, where the wall ends)
+        assert_eq!(nearest_point(&new, [-0.7, 0.9]).0, [-0.7, 1.0], "the wall");
+        let (q, _) = nearest_point(&new, [-0.45, 0.9]);
+        assert!(
+            q[0] > -0.5 && (q[1] - new.at(q[0])).abs() < TOL,
+            "the surface: {q:?}"
+        );
         let g = surface_gap(&new, [1.0, 0.8], 0.1);
         let exact = (1.1 - 0.8) / 0.1f64.hypot(1.0) - 0.1;
         assert!((g - exact).abs() < TOL, "{g} against {exact}");
