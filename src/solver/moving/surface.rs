@@ -271,11 +271,8 @@ pub(super) fn apply_extrusion(
 mod tests {
     use super::*;
 
-    /// The vertices that move by the surface's stretch alone: in the die the wall and above it
-    /// (a wall of the ALE map), in the extrudate those above the surface; the rest are free for
-    /// the particles' map. The stretch is zero in the die.
-    #[test]
-    fn the_die_wall_and_the_outside_follow_the_stretch_alone() {
+    /// A die and an extrudate of length 1, H0 = 1, the mesh top at 2, on 10 × 10 elements.
+    fn unit_die() -> (Extrusion, Mesh) {
         let e = Extrusion {
             h0: 1.0,
             die_length: 1.0,
@@ -283,7 +280,15 @@ mod tests {
             flow_rate: 1.0,
             top: 2.0,
         };
-        let mesh = e.mesh(10, 10);
+        (e, e.mesh(10, 10))
+    }
+
+    /// The vertices that move by the surface's stretch alone: in the die the wall and above it
+    /// (a wall of the ALE map), in the extrudate those above the surface; the rest are free for
+    /// the particles' map. The stretch is zero in the die.
+    #[test]
+    fn the_die_wall_and_the_outside_follow_the_stretch_alone() {
+        let (e, mesh) = unit_die();
         let s = Surface::new(&mesh, e).unwrap();
         let mut predicted = s.height().clone();
         predicted = predicted.predicted(0.1, 0.1);
@@ -304,14 +309,7 @@ mod tests {
     /// with "point not found in the displaced mesh: reduce Δt", which named neither).
     #[test]
     fn a_surface_that_leaves_the_mesh_is_refused_with_its_cause() {
-        let e = Extrusion {
-            h0: 1.0,
-            die_length: 1.0,
-            extrudate_length: 1.0,
-            flow_rate: 1.0,
-            top: 2.0,
-        };
-        let mesh = e.mesh(10, 10);
+        let (e, mesh) = unit_die();
         for (u_y, below) in [(-100.0, true), (100.0, false)] {
             let mut s = Surface::new(&mesh, e).unwrap();
             let velocity = vec![[1.0, u_y]; mesh.n_nodes()];
