@@ -353,21 +353,11 @@ impl Simulation {
             .into_iter()
             .filter(|g| surface.is_none() || !matches!(g.between, Between::TopWall(_)))
             .map(|g| g.elements);
-        let upper = surface.into_iter().flat_map(|s| {
-            x.iter().map(move |&c| {
-                let (q, d) = free_surface::nearest_point(s, c);
-                if d <= self.radius {
-                    return 0.0;
-                }
-                // the particle's point nearest to q
-                let p = [
-                    c[0] + self.radius * (q[0] - c[0]) / d,
-                    c[1] + self.radius * (q[1] - c[1]) / d,
-                ];
-                elements_between(mesh, p, q)
-            })
+        let films = surface.into_iter().flat_map(|s| {
+            x.iter()
+                .map(move |&c| free_surface::film_elements(mesh, s, c, self.radius))
         });
-        walls.chain(upper).reduce(f64::min)
+        walls.chain(films).reduce(f64::min)
     }
 
     /// A contact of the particles as they are now (after the last step taken) at any overlap,

@@ -108,8 +108,7 @@ pub fn run_case(case: &CaseSpec, obs: &mut dyn CaseObserver) -> CaseResult {
             Err(e) => {
                 // a failed solve from touching particles is their contact, not a fault
                 if let Some(c) = sim.touching().filter(|_| !non_finite_state(&e)) {
-                    let step = e.step().unwrap_or(sim.steps() as usize + 1);
-                    let error = format!("step {step}, {}: {e}", e.phase());
+                    let error = failure_message(&e, sim.steps());
                     obs.on_contact_at_failure(&c, sim.time(), &error);
                     return finished(&sim);
                 }
@@ -210,11 +209,7 @@ fn ended_by(e: MovingError, steps: u64, t: f64) -> CaseResult {
         }
     } else {
         RunStatus::Failed {
-            error: format!(
-                "step {}, {}: {e}",
-                e.step().unwrap_or(steps as usize + 1),
-                e.phase()
-            ),
+            error: failure_message(&e, steps),
         }
     };
     CaseResult {
@@ -224,6 +219,14 @@ fn ended_by(e: MovingError, steps: u64, t: f64) -> CaseResult {
         rejected_steps: None,
         flow_solver: None,
     }
+}
+
+/// "step N, phase: error" for an error of the step after `steps` completed ones: N is the step
+/// the error names where it names one (the flow counts a step before its surface's kinematic
+/// step can fail), else the next.
+fn failure_message(e: &MovingError, steps: u64) -> String {
+    let step = e.step().unwrap_or(steps as usize + 1);
+    format!("step {step}, {}: {e}", e.phase())
 }
 
 /// Adds the narrowest film at a failure to its message when fewer than
@@ -328,6 +331,17 @@ mod tests {
             }
             s => panic!("a failed solve is not physics: {s:?}"),
         }
+        // an error that names its step is reported at it, not at the steps counted plus one
+        let escaped = MovingError::SurfaceEscaped {
+            step: 455,
+            x: 0.0667,
+            height: -1.2,
+            moved: 5.8,
+        };
+        let RunStatus::Failed { error } = ended_by(escaped, 455, 6.8).status else {
+            panic!("a surface through the symmetry line is a failure");
+        };
+        assert!(error.starts_with("step 455, advance_surface:"), "{error}");
         // an unresolved film at the failure is named; a resolved one is not
         for (film, named) in [(Some(0.03), true), (Some(2.5), false), (None, false)] {
             let mut noted = r.clone();

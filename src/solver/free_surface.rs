@@ -17,6 +17,7 @@
 //!   symmetry line and the mesh top fixed.
 
 use crate::fem::element::q2;
+use crate::mesh::resolution::elements_between;
 use crate::mesh::Mesh;
 use crate::solver::ale::{stencil_at, AleMap, Remap, StencilWeights};
 use crate::solver::bdf::Bdf2;
@@ -325,6 +326,19 @@ pub fn nearest_point(surface: &HeightFunction, c: [f64; 2]) -> ([f64; 2], f64) {
         }
     }
     best
+}
+
+/// Elements of `mesh` across the film between a particle (centre `c`, radius `a`) and the fluid's
+/// upper boundary ([`nearest_point`]), along the line of closest approach
+/// ([`elements_between`]); 0 for a particle touching or crossing it.
+pub fn film_elements(mesh: &Mesh, surface: &HeightFunction, c: [f64; 2], a: f64) -> f64 {
+    let (q, d) = nearest_point(surface, c);
+    if d <= a {
+        return 0.0;
+    }
+    // the particle's point nearest to q
+    let p = [c[0] + a * (q[0] - c[0]) / d, c[1] + a * (q[1] - c[1]) / d];
+    elements_between(mesh, p, q)
 }
 
 /// The temporary ALE map of a free surface (thesis §6.3.3) carrying the history from the fluid

@@ -172,12 +172,13 @@ impl Surface {
     /// [`MovingError::SurfaceEscaped`] at its first node outside.
     pub(super) fn inside(&self, surface: &HeightFunction, step: usize) -> Result<(), MovingError> {
         let top = self.extrusion.top;
-        match surface
-            .profile()
-            .into_iter()
-            .find(|&[_, h]| h <= 0.0 || h >= top)
-        {
-            Some([x, height]) => Err(MovingError::SurfaceEscaped {
+        let outside = surface
+            .nodes()
+            .iter()
+            .zip(surface.heights())
+            .find(|&(_, &h)| h <= 0.0 || h >= top);
+        match outside {
+            Some((&x, &height)) => Err(MovingError::SurfaceEscaped {
                 step,
                 x,
                 height,
