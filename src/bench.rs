@@ -153,8 +153,8 @@ pub struct MovingBench {
     pub pattern_rebuilds: usize,
     /// Numeric flow factorizations over the run (warm-up and the initial solve included).
     pub flow_factorizations: usize,
-    /// How the flow matrix was factored.
-    pub factorization: crate::fem::substructure::Factorization,
+    /// How the flow matrix was factored and where the ALE map was solved.
+    pub path: MovingPath,
     /// Placements of the band solver (far-field factorizations) over the run.
     pub placements: usize,
     /// GMRES iterations that polished inexact flow solves over the run (0: every direct solve
@@ -168,6 +168,40 @@ pub struct MovingBench {
     pub peak_rss_mb: Option<f64>,
 }
 
+/// What a run of [`moving`] does where the paths differ: how the flow matrix is factored
+/// (`numerics.factorization`) and where the ALE's mesh displacement is solved
+/// (`numerics.ale_extent`).
+#[derive(Debug, Clone, Copy, PartialEq, Eq)]
+pub struct MovingPath {
+    /// The flow factorization.
+    pub factorization: crate::fem::substructure::Factorization,
+    /// The extent of the ALE map.
+    pub ale: crate::solver::ale::AleExtent,
+}
+
+impl MovingPath {
+    /// The refactor-every-step path as it was before the band and the ring: the whole flow
+    /// matrix factored every step, the ALE map solved on the whole mesh.
+    pub const REFACTOR: MovingPath = MovingPath {
+        factorization: crate::fem::substructure::Factorization::Whole,
+        ale: crate::solver::ale::AleExtent::Whole,
+    };
+
+    /// The label of the path in the table.
+    pub fn label(&self) -> String {
+        use crate::fem::substructure::Factorization;
+        use crate::solver::ale::AleExtent;
+        let f = match self.factorization {
+            Factorization::Band => "band",
+            Factorization::Whole => "whole (refactor)",
+        };
+        match self.ale {
+            AleExtent::Whole => f.to_string(),
+            AleExtent::Ring => format!("{f}, ALE ring"),
+        }
+    }
+}
+
 /// The case of [`moving`]: `n` free particles in confined shear flow (thesis §5.7: H = 1, L = 4,
 /// a = 0.1, Giesekus Wi = 1, α = 0.01, β = 0.1, Δt = 0.01) on an `nx × ny` mesh, particles on
 /// the line through the origin of slope −0.2 spaced 0.5 apart (the three-particle start of
@@ -175,7 +209,7 @@ pub struct MovingBench {
 /// `coupled_g`; with `follow = Some(r)` on a mesh that follows the particles along x (columns r
 /// times finer within 1.5a, count kept out to 12a, as `sweeps/three_particles_follow.toml`);
 /// `cut` = (quadtree level, interface rule) if not the case default; the flow matrix factored as
-/// `factorization` says. Everything else is the case default.
+/// `path` says. Everything else is the case default.
 pub fn moving_case(
     nx: usize,
     ny: usize,
@@ -183,7 +217,7 @@ pub fn moving_case(
     coupled_g: bool,
     follow: Option<f64>,
     cut: Option<(u32, crate::config::InterfaceRule)>,
-    factorization: crate::fem::substructure::Factorization,
+    path: MovingPath,
 ) -> Result<crate::config::CaseSpec, crate::config::SpecError> {
     let l = 4.0;
     let spacing = if n <= 7 { 0.5 } else { l / n as f64 };
@@ -202,8 +236,11 @@ pub fn moving_case(
         // (a unit variant always serializes)
         numerics["interface"] = serde_json::to_value(interface).unwrap_or_default();
     }
-    if !factorization.is_band() {
-        numerics["factorization"] = serde_json::to_value(factorization).unwrap_or_default();
+    if !path.factorization.is_band() {
+        numerics["factorization"] = serde_json::to_value(path.factorization).unwrap_or_default();
+    }
+    if !path.ale.is_whole() {
+        numerics["ale_extent"] = serde_json::to_value(path.ale).unwrap_or_default();
     }
     if let Some(ratio) = follow {
         numerics["follow"] =
@@ -218,7 +255,7 @@ pub fn moving_case(
 }
 
 /// One viscoelastic time step of [`moving_case`], built by [`crate::simulate::Simulation::new`]
-/// as every case is, once per flow factorization of `factorizations`: each built and stepped
+/// as every case is, once per path of `paths`: each built and stepped
 /// `warm_up` untimed steps in turn, then their timed steps alternated (one of each in turn, so
 /// that a machine whose speed drifts slows them alike), medians over `steps` steps. The memory
 /// reported is the peak resident memory a path added while it was built and warmed up (the
@@ -236,7 +273,7 @@ pub fn moving(
     coupled_g: bool,
     follow: Option<f64>,
     cut: Option<(u32, crate::config::InterfaceRule)>,
-    factorizations: &[crate::fem::substructure::Factorization],
+    paths: &[MovingPath],
 ) -> anyhow::Result<Vec<MovingBench>> {
     use crate::simulate::Simulation;
     use crate::solver::moving::StepOutcome;
@@ -251,8 +288,8 @@ pub fn moving(
     };
     let mut sims = Vec::new();
     let mut memory = Vec::new();
-    for &f in factorizations {
-        let case = moving_case(nx, ny, n, coupled_g, follow, cut, f)?;
+    for &path in paths {
+        let case = moving_case(nx, ny, n, coupled_g, follow, cut, path)?;
         let before = current_rss_mb();
         let reset = reset_peak_rss();
         let mut sim = Simulation::new(&case)?;
@@ -274,8 +311,8 @@ pub fn moving(
     let benches = sims
         .iter()
         .zip(&timings)
-        .zip(factorizations.iter().zip(memory))
-        .map(|((sim, reports), (&factorization, peak_rss_mb))| {
+        .zip(paths.iter().zip(memory))
+        .map(|((sim, reports), (&path, peak_rss_mb))| {
             let med = |f: &dyn Fn(&StepTimings) -> f64| median(reports.iter().map(f).collect());
             let flow = sim.stepper().flow();
             MovingBench {
@@ -307,7 +344,7 @@ pub fn moving(
                     / reports.len().max(1) as f64,
                 pattern_rebuilds: flow.pattern_rebuilds(),
                 flow_factorizations: flow.flow_refactorizations(),
-                factorization,
+                path,
                 placements: flow.flow_placements(),
                 polish_iterations: flow.flow_solver_stats().krylov_iterations,
                 transport: flow.transport_stats(),
@@ -337,10 +374,7 @@ impl MovingBench {
             "| {} | {} | {} | {} / {} | {:.4} | {:.4} | {:.4} | {:.4} | {:.4} | {:.4} | {:.4} | {:.4} | {:.4} | {:.4} | {:.4} | **{:.3}** | {:.3} | {} of {} | {} | {} of {} | {} | {} / {} | {} |",
             self.mesh,
             self.particles,
-            match self.factorization {
-                crate::fem::substructure::Factorization::Band => "band",
-                crate::fem::substructure::Factorization::Whole => "whole (refactor)",
-            },
+            self.path.label(),
             self.unknowns.0,
             self.unknowns.1,
             self.median.ale,
@@ -381,7 +415,9 @@ pub fn ratio_row(new: &MovingBench, old: &MovingBench) -> String {
     };
     let (a, b) = (&old.median, &new.median);
     format!(
-        "| ratio (refactor / band) | | | | {} | {} | {} | {} | {} | {} | {} | {} | {} | {} | {} | **{}** | {} | | | | | | {} |",
+        "| ratio ({} / {}) | | | | {} | {} | {} | {} | {} | {} | {} | {} | {} | {} | {} | **{}** | {} | | | | | | {} |",
+        old.path.label(),
+        new.path.label(),
         r(a.ale, b.ale),
         r(a.classify, b.classify),
         r(a.flow_assembly, b.flow_assembly),
@@ -396,7 +432,7 @@ pub fn ratio_row(new: &MovingBench, old: &MovingBench) -> String {
         r(a.total, b.total),
         r(old.mean_step, new.mean_step),
         match (old.peak_rss_mb, new.peak_rss_mb) {
-            (Some(o), Some(n)) => format!("memory {:.2}× of refactor", n / o),
+            (Some(o), Some(n)) => format!("memory {:.2}× of the second", n / o),
             _ => "—".into(),
         },
     )

@@ -137,6 +137,12 @@ pub enum Command {
         /// refactor-every-step path one after the other and compares them phase by phase.
         #[arg(long, value_enum, default_value_t = FactorizationArg::Both)]
         factorization: FactorizationArg,
+        /// Moving benchmark: where the ALE's mesh displacement is solved (`numerics.ale_extent`)
+        /// on the paths of `--factorization`; with `--factorization both` on the band path only
+        /// (the refactor path is the whole mesh's, as before the ring); `both` runs the ring and
+        /// then the whole mesh (with `--factorization band` or `whole`).
+        #[arg(long, value_enum, default_value_t = AleArg::Whole)]
+        ale: AleArg,
     },
 }
 
@@ -148,6 +154,17 @@ pub enum FactorizationArg {
     /// The far field once per placement of a band around the particles (the cases' default).
     Band,
     /// The whole matrix every step.
+    Whole,
+}
+
+/// Extents of the ALE map the moving benchmark runs (`numerics.ale_extent`).
+#[derive(Debug, Clone, Copy, PartialEq, Eq, ValueEnum)]
+pub enum AleArg {
+    /// A ring of elements around the particles, then the whole mesh.
+    Both,
+    /// A ring of elements around the particles.
+    Ring,
+    /// The whole mesh (the cases' default).
     Whole,
 }
 

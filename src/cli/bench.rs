@@ -2,7 +2,7 @@
 
 use std::process::ExitCode;
 
-use super::args::{cut_options, parse_mesh, BenchName, Command, FactorizationArg};
+use super::args::{cut_options, parse_mesh, AleArg, BenchName, Command, FactorizationArg};
 
 /// Runs the benchmark of a `Command::Bench`.
 ///
@@ -21,18 +21,37 @@ pub(super) fn bench(command: Command) -> anyhow::Result<ExitCode> {
         interface,
         follow,
         factorization,
+        ale,
     } = command
     else {
         unreachable!("bench is called with the bench command")
     };
     match name {
         BenchName::Moving => {
+            use crate::bench::MovingPath;
             use crate::fem::substructure::Factorization;
-            let paths: &[Factorization] = match factorization {
-                FactorizationArg::Both => &[Factorization::Band, Factorization::Whole],
-                FactorizationArg::Band => &[Factorization::Band],
-                FactorizationArg::Whole => &[Factorization::Whole],
+            use crate::solver::ale::AleExtent;
+            let extents: &[AleExtent] = match ale {
+                AleArg::Both => &[AleExtent::Ring, AleExtent::Whole],
+                AleArg::Ring => &[AleExtent::Ring],
+                AleArg::Whole => &[AleExtent::Whole],
             };
+            let path = |factorization, ale| MovingPath { factorization, ale };
+            let paths: Vec<MovingPath> = match factorization {
+                // the new path against the refactor path as it was (whole ALE too)
+                FactorizationArg::Both => {
+                    vec![path(Factorization::Band, extents[0]), MovingPath::REFACTOR]
+                }
+                FactorizationArg::Band => extents
+                    .iter()
+                    .map(|&a| path(Factorization::Band, a))
+                    .collect(),
+                FactorizationArg::Whole => extents
+                    .iter()
+                    .map(|&a| path(Factorization::Whole, a))
+                    .collect(),
+            };
+            let paths = paths.as_slice();
             println!("{}", crate::bench::MovingBench::HEADER);
             let mut closing = Vec::new();
             for m in mesh.split(',') {

@@ -4,6 +4,7 @@
 use super::method::Method;
 use super::time_step::{is_false, TimeStep};
 use crate::fem::substructure::Factorization;
+use crate::solver::ale::AleExtent;
 use crate::solver::multiplier::RigidCondition;
 use serde::{Deserialize, Serialize};
 
@@ -245,6 +246,12 @@ pub struct Numerics {
     /// remap keep their ids when the default changes (Newtonian cases leave it out of their id).
     #[serde(default)]
     pub remap: HistoryRemap,
+    /// Where the temporary ALE's mesh displacement is solved: `whole` (default: the whole mesh,
+    /// thesis Eq. 5.35) or `ring` (a ring of [`RING_ELEMENTS`](crate::solver::ale::RING_ELEMENTS) elements around the particles,
+    /// zero beyond: the far field is neither searched nor interpolated, so the map costs what
+    /// the particles' neighbourhood does, not the mesh). Not in the case id when default.
+    #[serde(default, skip_serializing_if = "AleExtent::is_whole")]
+    pub ale_extent: AleExtent,
     /// How the polymer stress enters the flow solve; default `auto`. Not written into the canonical
     /// case when default (case ids unchanged).
     #[serde(default, skip_serializing_if = "StressCoupling::is_auto")]

@@ -162,6 +162,7 @@ impl Simulation {
             settings::discretization(case),
         )?;
         stepper.set_remap(settings::ale_remap(case.numerics.remap));
+        stepper.set_ale_extent(case.numerics.ale_extent);
         Ok(Simulation {
             settings,
             stepper,

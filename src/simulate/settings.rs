@@ -12,7 +12,7 @@ use crate::config::{
 };
 use crate::observe::outcome::STEADY_OMEGA_RATE;
 use crate::particles::CONTACT_OVERLAP;
-use crate::solver::ale::Remap;
+use crate::solver::ale::{AleExtent, Remap};
 use crate::solver::constitutive::SupgVelocity;
 use crate::solver::constitutive_projection::PROJECTION_GHOST_PENALTY;
 use crate::solver::constitutive_stress::Coupling;
@@ -47,6 +47,8 @@ pub struct Settings {
     pub cut: Option<CutSettings>,
     /// How the history is carried onto the moving configuration (temporary ALE).
     pub history_remap: &'static str,
+    /// Where the temporary ALE's mesh displacement is solved.
+    pub ale_extent: &'static str,
     /// The frame the case is solved in (samples and snapshots are reported in the lab frame).
     pub frame: FrameSettings,
     /// Contact: particles closer than −overlap × a (a small overlap) touch.
@@ -405,6 +407,11 @@ impl Settings {
                 (true, HistoryRemap::Bilinear) => "bilinear",
                 (true, HistoryRemap::Biquadratic) => "biquadratic",
                 (true, HistoryRemap::Bicubic) => "bicubic",
+            },
+            ale_extent: match (polymer, n.ale_extent) {
+                (false, _) => "none (no history)",
+                (true, AleExtent::Whole) => "whole mesh (thesis Eq. 5.35)",
+                (true, AleExtent::Ring) => "a ring of elements around the particles",
             },
             frame: FrameSettings { velocity, rotation },
             contact_overlap: CONTACT_OVERLAP,

@@ -5,13 +5,141 @@
 //! background leaves: d_m = background + harmonic.
 
 use super::locate::nearest_image;
-use super::{AleError, RigidMove, TemporaryAle};
+use super::{AleError, AleExtent, RigidMove, TemporaryAle};
 use crate::fem::element::{q1, Q1_IN_Q2};
 use crate::fem::linsolve::{DirectSolver, SolverKind};
-use crate::mesh::{bounding_box, Mesh};
+use crate::fem::sparse::{q1_pattern, SparseMatrix};
+use crate::mesh::{bounding_box, dilate, Mesh};
 
 /// Relative residual accepted from the Laplace solve.
 const LAPLACE_RESIDUAL_TOL: f64 = 1e-10;
+
+/// Rings of elements around a rigid patch over which [`AleExtent::Ring`] lets the displacement
+/// fall to zero. The map's stretch there is about |d| / (rings · h) = C / rings for a particle
+/// moving at Courant number C = |U|Δt/h: 0.1 at C = 0.5, a tenth of an element per step, so
+/// that the pre-image search (which looks in the neighbours of a point's element) and the
+/// history's interpolation see a map as smooth as the whole mesh's near the patch.
+pub const RING_ELEMENTS: usize = 5;
+
+/// The Laplace problem of the mesh displacement on a region of elements (all of them, or a
+/// ring around the rigid patches): its vertices, matrix and factorization, kept while the
+/// region stays (the factorization while its fixed vertices stay too).
+pub(super) struct LaplaceSystem {
+    /// The region's elements (per element of the mesh).
+    region: Vec<bool>,
+    /// The region's elements, and their vertices in the local numbering.
+    elements: Vec<(usize, [usize; 4])>,
+    /// Local vertex → vertex of the mesh.
+    global: Vec<usize>,
+    matrix: SparseMatrix,
+    solver: Option<DirectSolver>,
+    /// The fixed local vertices `solver` was factored for (empty: not factored).
+    pub(super) factored_mask: Vec<bool>,
+}
+
+impl LaplaceSystem {
+    fn new(mesh: &Mesh, region: Vec<bool>) -> Self {
+        let mut local = vec![usize::MAX; mesh.n_vertices()];
+        let mut global = Vec::new();
+        let elements: Vec<(usize, [usize; 4])> = (0..mesh.n_elements())
+            .filter(|&e| region[e])
+            .map(|e| {
+                let verts = mesh.element_vertices[e].map(|v| {
+                    if local[v] == usize::MAX {
+                        local[v] = global.len();
+                        global.push(v);
+                    }
+                    local[v]
+                });
+                (e, verts)
+            })
+            .collect();
+        let locals: Vec<[usize; 4]> = elements.iter().map(|(_, v)| *v).collect();
+        Self {
+            matrix: q1_pattern(global.len(), &locals),
+            region,
+            elements,
+            global,
+            solver: None,
+            factored_mask: Vec::new(),
+        }
+    }
+
+    /// Whether each local vertex lies on the region's boundary (a vertex of an element outside
+    /// it): the displacement is zero there. None when the region is the whole mesh.
+    fn boundary(&self, mesh: &Mesh) -> Vec<bool> {
+        let mut edge = vec![false; mesh.n_vertices()];
+        for e in (0..mesh.n_elements()).filter(|&e| !self.region[e]) {
+            for &v in &mesh.element_vertices[e] {
+                edge[v] = true;
+            }
+        }
+        self.global.iter().map(|&v| edge[v]).collect()
+    }
+
+    /// The harmonic displacement at the local vertices with the `fixed` values (the symmetric
+    /// elimination of the fixed values; the matrix assembled and factored again only when the
+    /// set of fixed vertices changes, not their values).
+    fn solve(
+        &mut self,
+        element_k: &[[f64; 16]],
+        fixed: &[Option<[f64; 2]>],
+    ) -> Result<Vec<[f64; 2]>, AleError> {
+        let n = self.global.len();
+        if n == 0 {
+            return Ok(Vec::new());
+        }
+        let mask: Vec<bool> = fixed.iter().map(Option::is_some).collect();
+        let refactor = self.solver.is_none() || self.factored_mask != mask;
+        let mut rhs = [vec![0.0; n], vec![0.0; n]];
+        for (e, verts) in &self.elements {
+            let k = &element_k[*e];
+            for (b, &j) in verts.iter().enumerate() {
+                let Some(g) = fixed[j] else { continue };
+                for (a, &i) in verts.iter().enumerate() {
+                    if fixed[i].is_none() {
+                        rhs[0][i] -= k[4 * a + b] * g[0];
+                        rhs[1][i] -= k[4 * a + b] * g[1];
+                    }
+                }
+            }
+        }
+        for (v, f) in fixed.iter().enumerate() {
+            if let Some(g) = f {
+                rhs[0][v] = g[0];
+                rhs[1][v] = g[1];
+            }
+        }
+        if refactor {
+            let fx: Vec<Option<f64>> = mask.iter().map(|&m| m.then_some(0.0)).collect();
+            let mut scratch = vec![0.0; n];
+            self.matrix.zero();
+            let zero = [0.0; 4];
+            for (e, verts) in &self.elements {
+                self.matrix
+                    .scatter(verts, &element_k[*e], &zero, &mut scratch, &fx);
+            }
+            self.matrix.apply_constraints(&mut scratch, &fx);
+            if self.solver.is_none() {
+                self.solver = Some(DirectSolver::analyze(&self.matrix, SolverKind::Lblt)?);
+            }
+            self.factored_mask = Vec::new();
+            self.solver
+                .as_mut()
+                .expect("analysed above")
+                .factor(&self.matrix)?;
+            self.factored_mask = mask;
+        }
+        let solver = self.solver.as_mut().expect("factored above");
+        let mut d = vec![[0.0; 2]; n];
+        let mut sol = vec![0.0; n];
+        for (c, r) in rhs.iter().enumerate() {
+            solver.solve_checked(&self.matrix, r, &mut sol, LAPLACE_RESIDUAL_TOL)?;
+            d.iter_mut().zip(&sol).for_each(|(d, s)| d[c] = *s);
+        }
+        Ok(d)
+    }
+}
 
 impl TemporaryAle {
     /// The mesh displacement d_m for the given moves (Eqs. 5.35–5.38).
@@ -64,10 +192,13 @@ impl TemporaryAle {
             // a mesh with moved columns or rows: same pattern, new element matrices
             self.element_k = laplace_elements(mesh);
             self.k_axes = (mesh.ax.clone(), mesh.ay.clone());
-            self.factored_mask.clear();
+            if let Some(system) = &mut self.system {
+                system.factored_mask.clear();
+            }
         }
         // rigid patches: the nearest particle claims a vertex; walls win
         let mut claim: Vec<Option<(f64, [f64; 2])>> = vec![None; nv];
+        let mut patch = vec![false; mesh.n_elements()];
         for (e, xe) in mesh.element_coords.iter().enumerate() {
             let (lo, hi) = bounding_box(xe);
             for m in moves {
@@ -76,6 +207,7 @@ impl TemporaryAle {
                 if (q[0] - c[0]).hypot(q[1] - c[1]) >= m.radius {
                     continue;
                 }
+                patch[e] = true;
                 for (k, &v) in Q1_IN_Q2.iter().zip(&mesh.element_vertices[e]) {
                     let d = (xe[*k][0] - c[0]).hypot(xe[*k][1] - c[1]);
                     if claim[v].is_none_or(|(dc, _)| d < dc) {
@@ -84,63 +216,33 @@ impl TemporaryAle {
                 }
             }
         }
-        let fixed: Vec<Option<[f64; 2]>> = (0..nv)
-            .map(|v| {
-                if self.wall[v] || outside.is_some_and(|o| o[v]) {
+        let region = match self.extent {
+            AleExtent::Whole => vec![true; mesh.n_elements()],
+            AleExtent::Ring => dilate(&patch, mesh.dims(), mesh.periodic, RING_ELEMENTS),
+        };
+        if self.system.as_ref().is_none_or(|s| s.region != region) {
+            self.system = Some(LaplaceSystem::new(mesh, region));
+        }
+        let system = self.system.as_mut().expect("set above");
+        // the fixed vertices of the region's problem: walls, the vertices outside the fluid and
+        // the region's boundary (zero), the rigid patches (their moves less the background)
+        let on_edge = system.boundary(mesh);
+        let fixed: Vec<Option<[f64; 2]>> = system
+            .global
+            .iter()
+            .zip(&on_edge)
+            .map(|(&v, &edge)| {
+                if self.wall[v] || edge || outside.is_some_and(|o| o[v]) {
                     Some([0.0; 2])
                 } else {
                     claim[v].map(|(_, m)| [m[0] - bg(v)[0], m[1] - bg(v)[1]])
                 }
             })
             .collect();
-        // the matrix depends on which vertices are fixed only, not on their values: it is
-        // assembled and factored again only when a rigid patch gains or loses a vertex
-        let mask: Vec<bool> = fixed.iter().map(Option::is_some).collect();
-        let refactor = self.solver.is_none() || self.factored_mask != mask;
-        let mut rhs = [vec![0.0; nv], vec![0.0; nv]];
-        for (verts, k) in mesh.element_vertices.iter().zip(&self.element_k) {
-            // the symmetric elimination of the fixed values
-            for (b, &j) in verts.iter().enumerate() {
-                let Some(g) = fixed[j] else { continue };
-                for (a, &i) in verts.iter().enumerate() {
-                    if fixed[i].is_none() {
-                        rhs[0][i] -= k[4 * a + b] * g[0];
-                        rhs[1][i] -= k[4 * a + b] * g[1];
-                    }
-                }
-            }
-        }
-        for (v, f) in fixed.iter().enumerate() {
-            if let Some(g) = f {
-                rhs[0][v] = g[0];
-                rhs[1][v] = g[1];
-            }
-        }
-        if refactor {
-            let fx: Vec<Option<f64>> = mask.iter().map(|&m| m.then_some(0.0)).collect();
-            let mut scratch = vec![0.0; nv];
-            self.matrix.zero();
-            let zero = [0.0; 4];
-            for (verts, k) in mesh.element_vertices.iter().zip(&self.element_k) {
-                self.matrix.scatter(verts, k, &zero, &mut scratch, &fx);
-            }
-            self.matrix.apply_constraints(&mut scratch, &fx);
-            if self.solver.is_none() {
-                self.solver = Some(DirectSolver::analyze(&self.matrix, SolverKind::Lblt)?);
-            }
-            self.factored_mask = Vec::new();
-            self.solver
-                .as_mut()
-                .expect("analysed above")
-                .factor(&self.matrix)?;
-            self.factored_mask = mask;
-        }
-        let solver = self.solver.as_mut().expect("factored above");
+        let harmonic = system.solve(&self.element_k, &fixed)?;
         let mut d = vec![[0.0; 2]; nv];
-        let mut sol = vec![0.0; nv];
-        for (c, r) in rhs.iter().enumerate() {
-            solver.solve_checked(&self.matrix, r, &mut sol, LAPLACE_RESIDUAL_TOL)?;
-            d.iter_mut().zip(&sol).for_each(|(d, s)| d[c] = *s);
+        for (&v, h) in system.global.iter().zip(harmonic) {
+            d[v] = h;
         }
         if let Some(b) = background {
             d.iter_mut().zip(b).for_each(|(d, b)| {

@@ -29,19 +29,42 @@ mod annulus_tests;
 #[cfg(test)]
 mod remap_tests;
 #[cfg(test)]
+mod ring_tests;
+#[cfg(test)]
 mod tests;
 
 pub use extend::{extend_inside, EXTENSION_LAYERS};
 pub use stencil::{stencil_at, Remap, StencilWeights, STENCIL_LEN};
 
-use displacement::laplace_elements;
+pub use displacement::RING_ELEMENTS;
+use displacement::{laplace_elements, LaplaceSystem};
 use locate::{nearest_image, pre_image};
 use stencil::stencil;
 
-use crate::fem::linsolve::{DirectSolver, SolveError};
-use crate::fem::sparse::{q1_pattern, SparseMatrix};
+use crate::fem::linsolve::SolveError;
 use crate::mesh::{Axis, Mesh, Side};
 use crate::solver::bdf::Bdf2;
+
+/// Where the mesh displacement is solved for.
+#[derive(Debug, Clone, Copy, Default, PartialEq, Eq, serde::Serialize, serde::Deserialize)]
+#[serde(rename_all = "lowercase")]
+pub enum AleExtent {
+    /// On the whole mesh (thesis Eq. 5.35): every node moves a little, and every node's
+    /// history is interpolated at its pre-image every step.
+    #[default]
+    Whole,
+    /// On a ring of [`RING_ELEMENTS`] elements around the rigid patches, zero beyond it: the
+    /// far field keeps its nodes (no pre-image search, no interpolation, no mesh velocity
+    /// there), and the cost of the map follows the particles, not the mesh.
+    Ring,
+}
+
+impl AleExtent {
+    /// Whether this is the default, [`AleExtent::Whole`].
+    pub fn is_whole(&self) -> bool {
+        *self == AleExtent::Whole
+    }
+}
 
 /// A particle's move over one step.
 #[derive(Debug, Clone, Copy, PartialEq)]
@@ -105,10 +128,10 @@ pub struct TemporaryAle {
     element_k: Vec<[f64; 16]>,
     /// The axes of the mesh `element_k` belongs to.
     k_axes: (Axis, Axis),
-    matrix: SparseMatrix,
-    solver: Option<DirectSolver>,
-    /// The fixed vertices (walls and rigid patches) `solver` was factored for (empty: none).
-    factored_mask: Vec<bool>,
+    /// Where the displacement is solved for.
+    pub extent: AleExtent,
+    /// The Laplace problem on the last region.
+    system: Option<LaplaceSystem>,
     /// Vertices on walls (d = 0).
     wall: Vec<bool>,
     /// d_m^n of the previous step.
@@ -166,9 +189,8 @@ impl TemporaryAle {
         Self {
             element_k,
             k_axes: (mesh.ax.clone(), mesh.ay.clone()),
-            matrix: q1_pattern(mesh.n_vertices(), &mesh.element_vertices),
-            solver: None,
-            factored_mask: Vec::new(),
+            extent: AleExtent::default(),
+            system: None,
             wall,
             previous: None,
             previous_axes: None,
@@ -288,10 +310,34 @@ impl TemporaryAle {
             .as_ref()
             .map(|_| vec![([0; STENCIL_LEN], [0.0; STENCIL_LEN]); new.n_vertices()]);
         let mut mesh_velocity = vec![[0.0; 2]; nn];
+        // a node whose element has no displacement at its vertices is its own pre-image
+        let still =
+            |d: &[[f64; 2]], e: usize| old.element_vertices[e].iter().all(|&v| d[v] == [0.0, 0.0]);
+        let identity = |v: usize| {
+            let mut w = ([v; STENCIL_LEN], [0.0; STENCIL_LEN]);
+            w.1[0] = 1.0;
+            w
+        };
         for k in 0..nn {
             let x = new.nodes[k];
-            let (e1, xi1, xn) = pre_image(old, &d_new, x, period, homes.and_then(|h| h[k]))?;
+            let home = homes.and_then(|h| h[k]);
             let v = new.vertex_of_node[k];
+            if let Some((e, _)) = home.filter(|&(e, _)| still(&d_new, e)) {
+                if let Some(v) = v {
+                    at_n[v] = identity(v);
+                }
+                match (&d_old, at_nm1.as_mut()) {
+                    (Some(d_old), Some(at)) if moved.is_none() && still(d_old, e) => {
+                        if let Some(v) = v {
+                            at[v] = identity(v);
+                        }
+                        continue;
+                    }
+                    (None, _) => continue,
+                    _ => {}
+                }
+            }
+            let (e1, xi1, xn) = pre_image(old, &d_new, x, period, home)?;
             if let Some(v) = v {
                 at_n[v] = stencil(old, e1, xi1, self.remap);
             }

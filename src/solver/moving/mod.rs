@@ -26,7 +26,7 @@ pub use crate::geometry::Confinement;
 pub use crate::mesh::follow::FollowingMesh;
 use crate::mesh::{Mesh, Side};
 use crate::particles::{correct, deviation, extrapolate, Contact, RigidState, CONTACT_OVERLAP};
-use crate::solver::ale::{AleMap, Remap, RigidMove, TemporaryAle};
+use crate::solver::ale::{AleExtent, AleMap, Remap, RigidMove, TemporaryAle};
 use crate::solver::cutcells::{compute_cuts_bounded, Discretization};
 use crate::solver::free_surface::HeightFunction;
 use crate::solver::rigid::{ElementCut, Motion, Particle};
@@ -501,6 +501,11 @@ impl<D: Confinement + Clone + 'static> MovingParticles<D> {
     /// [`Remap::Bilinear`]).
     pub fn set_remap(&mut self, remap: Remap) {
         self.ale.remap = remap;
+    }
+
+    /// Chooses where the ALE's mesh displacement is solved (default [`AleExtent::Whole`]).
+    pub fn set_ale_extent(&mut self, extent: AleExtent) {
+        self.ale.extent = extent;
     }
 
     /// The fluid.
