@@ -66,7 +66,13 @@ pub fn velocity_gradient_at(
     let (_, jac, det) = q2_map(&mesh.element_coords[e], xi);
     let mut dn = [[0.0; 2]; 9];
     physical_gradients(&jac, det, &q2(xi).1, &mut dn);
-    let nodes = &mesh.elements[e];
+    gradient_of(&dn, u, &mesh.elements[e])
+}
+
+/// `L_ij = Σ_a ∂N_a/∂x_j u_i(node a)` from the physical gradients `dn` of an element's Q2
+/// functions at a point.
+#[inline]
+fn gradient_of(dn: &[[f64; 2]; 9], u: &[[f64; 2]], nodes: &[usize]) -> VelocityGradient {
     let mut l = [[0.0; 2]; 2];
     for a in 0..9 {
         for i in 0..2 {
@@ -119,6 +125,9 @@ pub struct Q1Projection {
     /// Per element, weight × det J at the points of `rule` (for the mesh geometry in use; empty
     /// until the first projection and after [`geometry_changed`](Self::geometry_changed)).
     rule_wdet: Vec<[f64; FULL_POINTS]>,
+    /// Per element, J⁻¹ at the points of `rule` (tabulated with `rule_wdet`): the integrands'
+    /// physical gradients on uncut elements without the element map at every point.
+    rule_jinv: Vec<[Jinv; FULL_POINTS]>,
     cuts: Vec<ElementCut>,
     ghost: Vec<GhostFace>,
     /// The faces the pattern of `matrix` holds.
@@ -132,6 +141,22 @@ pub const PROJECTION_GHOST_PENALTY: f64 = 1e-4;
 
 /// Points of the rule on an uncut element (3×3 Gauss).
 const FULL_POINTS: usize = 9;
+
+/// The inverse Jacobian of an element map at a point, `[[∂ξ/∂x, ∂ξ/∂y], [∂η/∂x, ∂η/∂y]]`, as
+/// [`physical_gradients`] forms it.
+type Jinv = [[f64; 2]; 2];
+
+/// A point of the integrand on an uncut element: its index in the full rule and J⁻¹ there (on
+/// cut elements the integrand gets `None` and works from ξ alone).
+pub type FullPoint = Option<(usize, Jinv)>;
+
+/// J⁻¹ = adj(J)/det, as [`physical_gradients`] computes it (bitwise).
+fn inverse_jacobian(jac: &[[f64; 2]; 2], det: f64) -> Jinv {
+    [
+        [jac[1][1] / det, -jac[0][1] / det],
+        [-jac[1][0] / det, jac[0][0] / det],
+    ]
+}
 
 impl std::fmt::Debug for Q1Projection {
     fn fmt(&self, f: &mut std::fmt::Formatter<'_>) -> std::fmt::Result {
@@ -158,6 +183,7 @@ impl Q1Projection {
             rhs: Vec::new(),
             rule_psi: rule.points.iter().map(|&xi| q1(xi).0).collect(),
             rule_wdet: Vec::new(),
+            rule_jinv: Vec::new(),
             rule: rule.points.into_iter().zip(rule.weights).collect(),
             cuts: vec![ElementCut::Fluid; mesh.n_elements()],
             ghost: Vec::new(),
@@ -189,6 +215,7 @@ impl Q1Projection {
     pub fn geometry_changed(&mut self) {
         self.factored = false;
         self.rule_wdet.clear();
+        self.rule_jinv.clear();
     }
 
     /// The element classification in use.
@@ -201,17 +228,20 @@ impl Q1Projection {
         if self.rule_wdet.len() == mesh.n_elements() {
             return;
         }
-        self.rule_wdet = mesh
+        (self.rule_wdet, self.rule_jinv) = mesh
             .element_coords
             .iter()
             .map(|xe| {
                 let mut wdet = [0.0; FULL_POINTS];
-                for (wd, &(xi, w)) in wdet.iter_mut().zip(&self.rule) {
-                    *wd = w * q2_map(xe, xi).2;
+                let mut jinv = [[[0.0; 2]; 2]; FULL_POINTS];
+                for ((wd, ji), &(xi, w)) in wdet.iter_mut().zip(&mut jinv).zip(&self.rule) {
+                    let (_, jac, det) = q2_map(xe, xi);
+                    *wd = w * det;
+                    *ji = inverse_jacobian(&jac, det);
                 }
-                wdet
+                (wdet, jinv)
             })
-            .collect();
+            .unzip();
     }
 
     fn refresh(&mut self, mesh: &Mesh) -> Result<(), ConstitutiveError> {
@@ -278,7 +308,8 @@ impl Q1Projection {
         Ok(())
     }
 
-    /// Projects `f(e, ξ) ∈ ℝᴺ` (evaluated at the quadrature points of the fluid part of element `e`)
+    /// Projects `f(e, ξ, full) ∈ ℝᴺ` (evaluated at the quadrature points of the fluid part of
+    /// element `e`; `full` is the point of the full rule on an uncut element, [`FullPoint`])
     /// onto Q1: `out[v]` are the nodal values.
     ///
     /// # Errors
@@ -289,7 +320,7 @@ impl Q1Projection {
     pub fn project<const N: usize>(
         &mut self,
         mesh: &Mesh,
-        f: impl Fn(usize, [f64; 2]) -> [f64; N],
+        f: impl Fn(usize, [f64; 2], FullPoint) -> [f64; N],
         out: &mut [[f64; N]],
     ) -> Result<(), ConstitutiveError> {
         assert_eq!(mesh.n_vertices(), self.n_vertices, "mesh topology changed");
@@ -314,16 +345,19 @@ impl Q1Projection {
             match &self.cuts[e] {
                 ElementCut::Inside => continue,
                 ElementCut::Fluid => {
-                    for ((wq, psi), &(xi, _)) in
-                        self.rule_wdet[e].iter().zip(&self.rule_psi).zip(&self.rule)
+                    for (q, ((wq, psi), &(xi, _))) in self.rule_wdet[e]
+                        .iter()
+                        .zip(&self.rule_psi)
+                        .zip(&self.rule)
+                        .enumerate()
                     {
-                        add(*wq, psi, f(e, xi));
+                        add(*wq, psi, f(e, xi, Some((q, self.rule_jinv[e][q]))));
                     }
                 }
                 ElementCut::Cut(c) => {
                     for &(xi, w) in &c.vol {
                         let wq = w * q2_map(&mesh.element_coords[e], xi).2;
-                        add(wq, &q1(xi).0, f(e, xi));
+                        add(wq, &q1(xi).0, f(e, xi, None));
                     }
                 }
             }
@@ -361,10 +395,19 @@ impl Q1Projection {
         out: &mut [Sym2],
     ) -> Result<(), ConstitutiveError> {
         let mut buf = vec![[0.0; 3]; self.n_vertices];
+        let psi = self.rule_psi.clone();
         self.project(
             mesh,
-            |e, xi| {
-                let c = sym_at(mesh, s, e, xi).exp();
+            |e, xi, full| {
+                let c = match full {
+                    // q1(ξ) tabulated at the full rule's points
+                    Some((q, _)) => {
+                        let v = &mesh.element_vertices[e];
+                        (0..4).fold(Sym2::ZERO, |acc, a| acc + psi[q][a] * s[v[a]])
+                    }
+                    None => sym_at(mesh, s, e, xi),
+                }
+                .exp();
                 [c.xx, c.xy, c.yy]
             },
             &mut buf,
@@ -385,10 +428,21 @@ impl Q1Projection {
         u: &[[f64; 2]],
         out: &mut [[f64; 4]],
     ) -> Result<(), ConstitutiveError> {
+        let dq2: Vec<[[f64; 2]; 9]> = self.rule.iter().map(|&(xi, _)| q2(xi).1).collect();
         self.project(
             mesh,
-            |e, xi| {
-                let l = velocity_gradient_at(mesh, u, e, xi);
+            |e, xi, full| {
+                let l = match full {
+                    // the reference gradients and J⁻¹ tabulated at the full rule's points
+                    Some((q, inv)) => {
+                        let mut dn = [[0.0; 2]; 9];
+                        for (d, &[a, b]) in dn.iter_mut().zip(&dq2[q]) {
+                            *d = [inv[0][0] * a + inv[1][0] * b, inv[0][1] * a + inv[1][1] * b];
+                        }
+                        gradient_of(&dn, u, &mesh.elements[e])
+                    }
+                    None => velocity_gradient_at(mesh, u, e, xi),
+                };
                 [l.dudx, l.dudy, l.dvdx, l.dvdy]
             },
             out,
@@ -420,7 +474,7 @@ mod tests {
         let mut out = vec![[0.0; 1]; m.n_vertices()];
         p.project(
             &m,
-            |e, xi| [1.0 + 2.0 * q2_map(&m.element_coords[e], xi).0[1]],
+            |e, xi, _| [1.0 + 2.0 * q2_map(&m.element_coords[e], xi).0[1]],
             &mut out,
         )
         .unwrap();
