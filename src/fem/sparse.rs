@@ -268,30 +268,50 @@ impl SparseMatrix {
         }
     }
 
+    /// For each stored entry (i, j), the position of (j, i) — the pattern is symmetric — for
+    /// [`eliminate_constraints`](Self::eliminate_constraints) (once per pattern).
+    pub fn transpose_positions(&self) -> Vec<u32> {
+        let mut next = self.col_ptr.clone();
+        let mut transpose = vec![u32::MAX; self.row_idx.len()];
+        // entries (i, j) in column order: column i's entries in row order are the transposes
+        for j in 0..self.n {
+            for p in self.col_ptr[j]..self.col_ptr[j + 1] {
+                let i = self.row_idx[p];
+                let q = next[i];
+                debug_assert_eq!(self.row_idx[q], j, "symmetric pattern");
+                next[i] += 1;
+                transpose[p] = u32::try_from(q).expect("fewer than 2³² − 1 entries");
+            }
+        }
+        transpose
+    }
+
     /// For a matrix assembled without constraints: moves the columns of constrained dofs to the
     /// right-hand side (`rhs_i −= a_ij g_j` for unconstrained i) and zeroes the rows and columns
     /// of constrained dofs — what [`scatter`](Self::scatter) does element by element. Follow
-    /// with [`apply_constraints`](Self::apply_constraints).
-    pub fn eliminate_constraints(&mut self, rhs: &mut [f64], fixed: &[Option<f64>]) {
-        for j in 0..self.n {
-            let (s, e) = (self.col_ptr[j], self.col_ptr[j + 1]);
-            match fixed[j] {
-                Some(g) => {
-                    for p in s..e {
-                        let i = self.row_idx[p];
-                        if fixed[i].is_none() {
-                            rhs[i] -= self.values[p] * g;
-                        }
-                        self.values[p] = 0.0;
-                    }
+    /// with [`apply_constraints`](Self::apply_constraints). Visits the constrained columns only:
+    /// a constrained row's entry in an unconstrained column is found as the transpose
+    /// (`transpose`, [`transpose_positions`](Self::transpose_positions) of this pattern).
+    pub fn eliminate_constraints(
+        &mut self,
+        rhs: &mut [f64],
+        fixed: &[Option<f64>],
+        transpose: &[u32],
+    ) {
+        debug_assert_eq!(
+            transpose.len(),
+            self.row_idx.len(),
+            "this pattern's transpose"
+        );
+        for (j, g) in fixed.iter().enumerate() {
+            let Some(g) = *g else { continue };
+            for p in self.col_ptr[j]..self.col_ptr[j + 1] {
+                let i = self.row_idx[p];
+                if fixed[i].is_none() {
+                    rhs[i] -= self.values[p] * g;
+                    self.values[transpose[p] as usize] = 0.0;
                 }
-                None => {
-                    for p in s..e {
-                        if fixed[self.row_idx[p]].is_some() {
-                            self.values[p] = 0.0;
-                        }
-                    }
-                }
+                self.values[p] = 0.0;
             }
         }
     }
@@ -419,7 +439,8 @@ mod tests {
             b.scatter(&g, &ke, &fe, &mut rb, &free);
         }
         a.apply_constraints(&mut ra, &fixed);
-        b.eliminate_constraints(&mut rb, &fixed);
+        let transpose = b.transpose_positions();
+        b.eliminate_constraints(&mut rb, &fixed, &transpose);
         b.apply_constraints(&mut rb, &fixed);
         assert_eq!(a.values, b.values);
         assert_eq!(ra, rb);

@@ -202,8 +202,11 @@ impl Stokes {
             self.assemble_ghost_penalty();
         }
         self.assemble_lubrication();
+        if self.transpose.is_empty() {
+            self.transpose = self.matrix.transpose_positions();
+        }
         self.matrix
-            .eliminate_constraints(&mut self.rhs, &self.fixed);
+            .eliminate_constraints(&mut self.rhs, &self.fixed, &self.transpose);
         self.matrix.apply_constraints(&mut self.rhs, &self.fixed);
     }
 

@@ -247,6 +247,9 @@ pub struct Stokes {
     /// sliver rows to cancellation; for the same reason a moved element is never subtracted and
     /// re-added, the base is rebuilt without it.)
     fluid_base: Option<(Vec<f64>, f64, f64)>,
+    /// The pattern's transpose positions (`SparseMatrix::transpose_positions`; empty: not
+    /// built for this pattern).
+    transpose: Vec<u32>,
     /// Per element, whether its coordinates may change ([`set_mesh`](Self::set_mesh)): such
     /// elements are left out of the fluid base and assembled every step.
     moving: Vec<bool>,
@@ -333,6 +336,7 @@ impl Stokes {
             links,
             reach,
             fluid_base: None,
+            transpose: Vec::new(),
             moving: vec![false; n_elements],
             rectangles: (0.0, 0.0, HashMap::new()),
             positions: ElementPositions::default(),
@@ -374,6 +378,7 @@ impl Stokes {
             );
             self.positions.clear();
             self.face_positions.clear();
+            self.transpose.clear();
             if let Some(v) = self.solver.take().and_then(|s| s.probe_verdict()) {
                 self.probe_verdict = Some(v);
             }
