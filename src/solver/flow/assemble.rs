@@ -6,13 +6,13 @@
 
 use std::collections::HashMap;
 
-use super::cache::{assembled_each_step, canonical_rectangle, RECTANGLE_CACHE_LEN};
+use super::cache::{assembled_each_step, canonical_rectangle, GhostPatch, RECTANGLE_CACHE_LEN};
 use super::dofs::{element_dofs, MAX_EL_DOFS};
 use super::kernels::{fluid_element_matrix, shape_table, stokes_kernel};
 use super::Stokes;
 use crate::fem::element::{physical_gradients, q1, q2, q2_map};
 use crate::mesh::Shape;
-use crate::solver::ghost::{ghost_faces, ghost_patch_matrices, FaceSide, GhostFace};
+use crate::solver::ghost::{ghost_faces, FaceSide, GhostFace};
 use crate::solver::lubrication::films;
 use crate::solver::multiplier::RigidCondition;
 use crate::solver::polymer_terms::{boundary_terms, volume_terms, PolymerStress};
@@ -254,13 +254,18 @@ impl Stokes {
     fn assemble_ghost_penalty(&mut self) {
         let lay = self.layout;
         let visc = self.params.eta + self.params.theta;
-        let (mut k2, mut k1) = ([0.0; 324], [0.0; 64]);
         const N: usize = 44;
         let mut ke = [0.0; N * N];
         let zero = [0.0; N];
         let mut dofs = [0usize; N];
+        // the last step's patches, for the faces that are ghost faces still
+        let mut last = std::mem::take(&mut self.ghost_patches);
         for face in ghost_faces(&self.mesh, &self.cuts) {
-            let h = ghost_patch_matrices(&self.mesh, &face, &self.rule, &mut k2, &mut k1);
+            let key = face_key(&face);
+            let patch = last
+                .remove(&key)
+                .unwrap_or_else(|| GhostPatch::of(&self.mesh, &face, &self.rule));
+            let (k2, k1, h) = (&patch.k2, &patch.k1, patch.h);
             let (gu, gp) = (
                 self.params.ghost_penalty * visc / (h * h),
                 -self.params.ghost_penalty / visc,
@@ -310,6 +315,7 @@ impl Stokes {
                     );
                 }
             }
+            self.ghost_patches.insert(key, patch);
         }
     }
 }

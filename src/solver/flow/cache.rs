@@ -9,8 +9,10 @@ use super::dofs::{element_dofs, MAX_EL_DOFS};
 use super::kernels::{fluid_element_matrix, shape_table};
 use super::pattern::Reach;
 use super::Stokes;
+use crate::fem::quadrature::QuadRule;
 use crate::fem::sparse::SparseMatrix;
-use crate::mesh::bounding_box;
+use crate::mesh::{bounding_box, Mesh};
+use crate::solver::ghost::{ghost_patch_matrices, GhostFace};
 use crate::solver::rigid::ElementCut;
 
 /// Margin, in elements along each index direction, by which [`Stokes::set_mesh`] widens the
@@ -106,6 +108,29 @@ pub(super) const NOT_IN_PATTERN: u32 = u32::MAX;
 
 /// (η, θ) and the fluid element matrices by rectangle sides (see `Stokes::rectangles`).
 pub(super) type RectangleMatrices = (f64, f64, HashMap<[u64; 2], Box<[f64]>>);
+
+/// A ghost-penalty face's patch matrices ([`ghost_patch_matrices`]: Q2 over its 18 nodes, Q1
+/// over its 8 vertices, and the patch size), which depend on the two elements' coordinates only:
+/// [`Stokes`] keeps those of the last step's faces while the elements stay where they are.
+pub(super) struct GhostPatch {
+    pub elements: [usize; 2],
+    pub k2: Box<[f64; 324]>,
+    pub k1: [f64; 64],
+    pub h: f64,
+}
+
+impl GhostPatch {
+    pub(super) fn of(mesh: &Mesh, face: &GhostFace, rule: &QuadRule) -> Self {
+        let (mut k2, mut k1) = (Box::new([0.0; 324]), [0.0; 64]);
+        let h = ghost_patch_matrices(mesh, face, rule, &mut k2, &mut k1);
+        Self {
+            elements: [face.first, face.second],
+            k2,
+            k1,
+            h,
+        }
+    }
+}
 
 /// Distinct rectangle sizes kept by [`Stokes`] between steps before it starts afresh (a mesh
 /// that follows the particles creates a few hundred per step; 4096 matrices of 38×38 are 47 MB).

@@ -40,7 +40,7 @@ use std::collections::HashMap;
 use std::time::Instant;
 
 use crate::mesh::dilate;
-use cache::{ElementPositions, RectangleMatrices, MOVING_MARGIN};
+use cache::{ElementPositions, GhostPatch, RectangleMatrices, MOVING_MARGIN};
 use constraints::{push_condition_values, VelocityCondition};
 use multipliers::{links_cover, ring_links, rings_for, RingLink};
 use pattern::{build_pattern, reach_for, Reach};
@@ -247,6 +247,9 @@ pub struct Stokes {
     /// sliver rows to cancellation; for the same reason a moved element is never subtracted and
     /// re-added, the base is rebuilt without it.)
     fluid_base: Option<(Vec<f64>, f64, f64)>,
+    /// The ghost-penalty faces' patch matrices of the last assembly, by face key (kept while
+    /// their elements' coordinates stay).
+    ghost_patches: HashMap<usize, GhostPatch>,
     /// The pattern's transpose positions (`SparseMatrix::transpose_positions`; empty: not
     /// built for this pattern).
     transpose: Vec<u32>,
@@ -337,6 +340,7 @@ impl Stokes {
             reach,
             fluid_base: None,
             transpose: Vec::new(),
+            ghost_patches: HashMap::new(),
             moving: vec![false; n_elements],
             rectangles: (0.0, 0.0, HashMap::new()),
             positions: ElementPositions::default(),
@@ -434,6 +438,8 @@ impl Stokes {
             self.band_solver = None;
             self.base_rebuilds += 1;
         }
+        self.ghost_patches
+            .retain(|_, p| !p.elements.iter().any(|&e| changed[e]));
         self.mesh = mesh;
         self.factored_values = None;
         self.wall_values.clear();
