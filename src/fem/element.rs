@@ -94,11 +94,27 @@ pub fn physical_gradients<const N: usize>(
     dref: &[[f64; 2]; N],
     out: &mut [[f64; 2]; N],
 ) {
-    // J^{-1} = adj(J)/det; ∇N_i = Σ_d (J^{-1})_{d i} ∂N/∂ξ_d
-    let inv = [
+    gradients_with(&inverse_jacobian(jac, det), dref, out);
+}
+
+/// J⁻¹ = adj(J)/det, `[[∂ξ/∂x, ∂ξ/∂y], [∂η/∂x, ∂η/∂y]]`: what [`physical_gradients`] applies,
+/// for a caller that tabulates it.
+#[inline]
+pub fn inverse_jacobian(jac: &[[f64; 2]; 2], det: f64) -> [[f64; 2]; 2] {
+    [
         [jac[1][1] / det, -jac[0][1] / det],
         [-jac[1][0] / det, jac[0][0] / det],
-    ];
+    ]
+}
+
+/// Physical gradients from reference gradients with a given J⁻¹ ([`inverse_jacobian`]):
+/// ∇N_i = Σ_d (J⁻¹)_{d i} ∂N/∂ξ_d — bitwise what [`physical_gradients`] computes.
+#[inline]
+pub fn gradients_with<const N: usize>(
+    inv: &[[f64; 2]; 2],
+    dref: &[[f64; 2]; N],
+    out: &mut [[f64; 2]; N],
+) {
     for k in 0..N {
         let (a, b) = (dref[k][0], dref[k][1]);
         out[k] = [inv[0][0] * a + inv[1][0] * b, inv[0][1] * a + inv[1][1] * b];

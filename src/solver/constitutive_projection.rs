@@ -8,7 +8,7 @@
 //! - `*_at` functions: values and physical gradients of nodal Q1 (and Q2 velocity) fields at a
 //!   reference point of an element, as the polymer stress of the flow solve needs them.
 
-use crate::fem::element::{physical_gradients, q1, q2, q2_map};
+use crate::fem::element::{gradients_with, inverse_jacobian, physical_gradients, q1, q2, q2_map};
 use crate::fem::linsolve::{DirectSolver, SolverKind};
 use crate::fem::quadrature::gauss_quad;
 use crate::fem::sparse::{q1_pattern, SparseMatrix};
@@ -149,14 +149,6 @@ type Jinv = [[f64; 2]; 2];
 /// A point of the integrand on an uncut element: its index in the full rule and J⁻¹ there (on
 /// cut elements the integrand gets `None` and works from ξ alone).
 pub type FullPoint = Option<(usize, Jinv)>;
-
-/// J⁻¹ = adj(J)/det, as [`physical_gradients`] computes it (bitwise).
-fn inverse_jacobian(jac: &[[f64; 2]; 2], det: f64) -> Jinv {
-    [
-        [jac[1][1] / det, -jac[0][1] / det],
-        [-jac[1][0] / det, jac[0][0] / det],
-    ]
-}
 
 impl std::fmt::Debug for Q1Projection {
     fn fmt(&self, f: &mut std::fmt::Formatter<'_>) -> std::fmt::Result {
@@ -436,9 +428,7 @@ impl Q1Projection {
                     // the reference gradients and J⁻¹ tabulated at the full rule's points
                     Some((q, inv)) => {
                         let mut dn = [[0.0; 2]; 9];
-                        for (d, &[a, b]) in dn.iter_mut().zip(&dq2[q]) {
-                            *d = [inv[0][0] * a + inv[1][0] * b, inv[0][1] * a + inv[1][1] * b];
-                        }
+                        gradients_with(&inv, &dq2[q], &mut dn);
                         gradient_of(&dn, u, &mesh.elements[e])
                     }
                     None => velocity_gradient_at(mesh, u, e, xi),

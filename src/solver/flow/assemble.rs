@@ -6,11 +6,13 @@
 
 use std::collections::HashMap;
 
-use super::cache::{assembled_each_step, canonical_rectangle, GhostPatch, RECTANGLE_CACHE_LEN};
+use super::cache::{
+    assembled_each_step, canonical_rectangle, BasePoint, GhostPatch, RECTANGLE_CACHE_LEN,
+};
 use super::dofs::{element_dofs, MAX_EL_DOFS};
 use super::kernels::{fluid_element_matrix, shape_table, stokes_kernel};
 use super::Stokes;
-use crate::fem::element::{physical_gradients, q1, q2, q2_map};
+use crate::fem::element::{gradients_with, inverse_jacobian, physical_gradients, q1, q2, q2_map};
 use crate::mesh::Shape;
 use crate::solver::ghost::{ghost_faces, FaceSide, GhostFace};
 use crate::solver::lubrication::films;
@@ -33,12 +35,12 @@ impl Stokes {
         if self
             .fluid_base
             .as_ref()
-            .is_none_or(|b| (b.1, b.2) != (eta, theta))
+            .is_none_or(|b| (b.eta, b.theta) != (eta, theta))
         {
-            self.fluid_base = Some((self.fluid_values(), eta, theta));
+            self.fluid_base = Some(self.fluid_base());
         }
-        let base = &self.fluid_base.as_ref().expect("built above").0;
-        self.matrix.values.copy_from_slice(base);
+        let base = self.fluid_base.take().expect("built above");
+        self.matrix.values.copy_from_slice(&base.values);
         self.rhs.iter_mut().for_each(|v| *v = 0.0);
         let rectangles = self.mesh.shape == Shape::Rectangle;
         if rectangles
@@ -85,17 +87,27 @@ impl Stokes {
             match cut {
                 None if in_base || by_sides => {
                     // the Stokes matrix is in the base or known from the sides: the loads and
-                    // the semi-implicit stress's matrix only
+                    // the semi-implicit stress's matrix only (a base element's geometry from
+                    // the base's table)
                     for (q, ((n2, dref), _)) in tab.iter().enumerate() {
-                        let (x, jac, det) = q2_map(xe, self.rule.points[q]);
-                        let w = self.rule.weights[q] * det;
+                        let at = if in_base {
+                            base.points[e][q]
+                        } else {
+                            let (x, jac, det) = q2_map(xe, self.rule.points[q]);
+                            BasePoint {
+                                x,
+                                w: self.rule.weights[q] * det,
+                                inv: inverse_jacobian(&jac, det),
+                            }
+                        };
+                        let (x, w) = (at.x, at.w);
                         let force = f(x);
                         for a in 0..9 {
                             fe[2 * a] += w * n2[a] * force[0];
                             fe[2 * a + 1] += w * n2[a] * force[1];
                         }
                         if let Some(ps) = stress {
-                            physical_gradients(&jac, det, dref, &mut dn);
+                            gradients_with(&at.inv, dref, &mut dn);
                             let lin = ps.at(e, self.rule.points[q], x, false);
                             volume_terms(ke, fe, ndc, w, n2, &dn, &lin);
                         }
@@ -195,6 +207,7 @@ impl Stokes {
                 self.rhs[i] += fe[a];
             }
         }
+        self.fluid_base = Some(base);
         if !weak {
             self.assemble_multipliers();
         }

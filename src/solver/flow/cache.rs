@@ -9,6 +9,7 @@ use super::dofs::{element_dofs, MAX_EL_DOFS};
 use super::kernels::{fluid_element_matrix, shape_table};
 use super::pattern::Reach;
 use super::Stokes;
+use crate::fem::element::{inverse_jacobian, q2_map};
 use crate::fem::quadrature::QuadRule;
 use crate::fem::sparse::SparseMatrix;
 use crate::mesh::{bounding_box, Mesh};
@@ -36,7 +37,7 @@ pub(super) fn assembled_each_step(reach: &Reach, moving: &[bool], e: usize) -> b
 impl Stokes {
     /// Matrix values of the elements outside every reach and the moving-element mask (no stress,
     /// no constraints).
-    pub(super) fn fluid_values(&mut self) -> Vec<f64> {
+    fn fluid_values(&mut self) -> Vec<f64> {
         let lay = self.layout;
         let (eta, theta) = (self.params.eta, self.params.theta);
         let nd = 22 + if lay.with_g { 16 } else { 0 };
@@ -108,6 +109,58 @@ pub(super) const NOT_IN_PATTERN: u32 = u32::MAX;
 
 /// (η, θ) and the fluid element matrices by rectangle sides (see `Stokes::rectangles`).
 pub(super) type RectangleMatrices = (f64, f64, HashMap<[u64; 2], Box<[f64]>>);
+
+/// The fluid base of [`Stokes`]: the matrix values of the elements outside every reach and the
+/// moving-element mask, the (η, θ) they were built with, and those elements' geometry at the
+/// rule's points (their coordinates do not change while the base lasts), from which a step
+/// assembles their loads.
+pub(super) struct FluidBase {
+    pub values: Vec<f64>,
+    pub eta: f64,
+    pub theta: f64,
+    /// Per element and rule point: x, weight × det J and J⁻¹ (meaningful for the base's
+    /// elements only).
+    pub points: Vec<[BasePoint; BASE_POINTS]>,
+}
+
+/// Points of the flow's element rule (3×3 Gauss).
+pub(super) const BASE_POINTS: usize = 9;
+
+/// A rule point of a base element: position, weight × det J, J⁻¹.
+#[derive(Clone, Copy, Default)]
+pub(super) struct BasePoint {
+    pub x: [f64; 2],
+    pub w: f64,
+    pub inv: [[f64; 2]; 2],
+}
+
+impl Stokes {
+    /// The fluid base for the current reach, mask and (η, θ).
+    pub(super) fn fluid_base(&mut self) -> FluidBase {
+        assert_eq!(self.rule.points.len(), BASE_POINTS, "3×3 Gauss");
+        let points = self
+            .mesh
+            .element_coords
+            .iter()
+            .map(|xe| {
+                std::array::from_fn(|q| {
+                    let (x, jac, det) = q2_map(xe, self.rule.points[q]);
+                    BasePoint {
+                        x,
+                        w: self.rule.weights[q] * det,
+                        inv: inverse_jacobian(&jac, det),
+                    }
+                })
+            })
+            .collect();
+        FluidBase {
+            values: self.fluid_values(),
+            eta: self.params.eta,
+            theta: self.params.theta,
+            points,
+        }
+    }
+}
 
 /// A ghost-penalty face's patch matrices ([`ghost_patch_matrices`]: Q2 over its 18 nodes, Q1
 /// over its 8 vertices, and the patch size), which depend on the two elements' coordinates only:

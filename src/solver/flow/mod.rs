@@ -40,7 +40,7 @@ use std::collections::HashMap;
 use std::time::Instant;
 
 use crate::mesh::dilate;
-use cache::{ElementPositions, GhostPatch, RectangleMatrices, MOVING_MARGIN};
+use cache::{ElementPositions, FluidBase, GhostPatch, RectangleMatrices, MOVING_MARGIN};
 use constraints::{push_condition_values, VelocityCondition};
 use multipliers::{links_cover, ring_links, rings_for, RingLink};
 use pattern::{build_pattern, reach_for, Reach};
@@ -246,7 +246,7 @@ pub struct Stokes {
     /// elements from an all-fluid base instead lost the relative accuracy of the tiny entries of
     /// sliver rows to cancellation; for the same reason a moved element is never subtracted and
     /// re-added, the base is rebuilt without it.)
-    fluid_base: Option<(Vec<f64>, f64, f64)>,
+    fluid_base: Option<FluidBase>,
     /// The ghost-penalty faces' patch matrices of the last assembly, by face key (kept while
     /// their elements' coordinates stay).
     ghost_patches: HashMap<usize, GhostPatch>,
