@@ -42,7 +42,7 @@ use crate::fem::ilu::Ilu0;
 use crate::fem::linsolve::{DirectSolver, SolveError};
 use crate::fem::quadrature::gauss_quad;
 use crate::fem::sparse::{q1_pattern, SparseMatrix};
-use crate::mesh::Mesh;
+use crate::mesh::{Axis, Mesh};
 use crate::rheology::{log_conformation_rhs, Giesekus, Sym2, VelocityGradient};
 use crate::solver::ghost::{face_vertices, ghost_face_matrix, ghost_faces, FacePattern, GhostFace};
 pub use crate::solver::log_conformation_history::LogConformationHistory;
@@ -128,10 +128,14 @@ pub struct TransportElement<'a> {
 /// `f[a] = Σ_q w_q (ψ_a + τ w·∇ψ_a)(history + g(G, s_arg))` of one element (or its fluid part),
 /// for the quadrature `points` (reference point, reference weight). `a0` is `c₀/Δt` (BDF2: 3/(2Δt) for equal steps) or
 /// `1/Δt` (Euler). Overwrites `k` and `f`.
+///
+/// `maps`: the element map at the points (J, det J), if the caller tabulated it; else it is
+/// evaluated at every point.
 #[allow(clippy::too_many_arguments)]
 pub fn transport_element_kernel(
     el: &TransportElement<'_>,
     points: &[([f64; 2], f64)],
+    maps: Option<&[MapAt]>,
     model: &Giesekus,
     supg: SupgVelocity,
     dt: f64,
@@ -142,8 +146,11 @@ pub fn transport_element_kernel(
     *k = [[0.0; 4]; 4];
     *f = [Sym2::ZERO; 4];
     let mut dpsi = [[0.0; 2]; 4];
-    for &(xi, wref) in points {
-        let (_, jac, det) = q2_map(el.xe, xi);
+    for (q, &(xi, wref)) in points.iter().enumerate() {
+        let MapAt { jac, det } = match maps {
+            Some(m) => m[q],
+            None => MapAt::of(el.xe, xi),
+        };
         let (psi, dref) = q1(xi);
         physical_gradients(&jac, det, &dref, &mut dpsi);
         let n2 = q2(xi).0;
@@ -180,6 +187,27 @@ pub fn transport_element_kernel(
     }
 }
 
+/// The element map at a point: its Jacobian J and det J.
+#[derive(Debug, Clone, Copy)]
+pub struct MapAt {
+    /// J = ∂x/∂ξ.
+    pub jac: [[f64; 2]; 2],
+    /// det J.
+    pub det: f64,
+}
+
+impl MapAt {
+    /// The map of the Q2 element with nodes `xe` at `xi`.
+    pub fn of(xe: &[[f64; 2]; 9], xi: [f64; 2]) -> Self {
+        let (_, jac, det) = q2_map(xe, xi);
+        Self { jac, det }
+    }
+}
+
+/// The element maps of a mesh at the points of the full rule (3×3 Gauss), and the axes of the
+/// mesh they belong to.
+type RuleMaps = ((Axis, Axis), Vec<[MapAt; 9]>);
+
 /// The matrix positions of the inflow rows' entries, and each active inflow vertex with the
 /// position of its diagonal and its value.
 type InflowRows = (Vec<usize>, Vec<(usize, usize, Sym2)>);
@@ -206,6 +234,8 @@ pub struct LogConformationTransport {
     /// How the steps so far were solved.
     pub stats: TransportStats,
     rule: Vec<([f64; 2], f64)>,
+    /// The element maps at the points of `rule`, for the mesh of the last assembly.
+    rule_maps: Option<RuleMaps>,
     cuts: Vec<ElementCut>,
     /// Faces with a ghost penalty (interior faces of cut elements).
     ghost: Vec<GhostFace>,
@@ -248,6 +278,7 @@ impl LogConformationTransport {
             direct: false,
             stats: TransportStats::default(),
             rule: rule.points.into_iter().zip(rule.weights).collect(),
+            rule_maps: None,
             cuts: vec![ElementCut::Fluid; mesh.n_elements()],
             ghost: Vec::new(),
             face_pattern: FacePattern::default(),
@@ -404,11 +435,24 @@ impl LogConformationTransport {
         let (mut k, mut f) = ([[0.0; 4]; 4], [Sym2::ZERO; 4]);
         let mut kflat = [0.0; 16];
         let mut fc = [0.0; 4];
+        if self
+            .rule_maps
+            .as_ref()
+            .is_none_or(|((ax, ay), _)| (ax, ay) != (&mesh.ax, &mesh.ay))
+        {
+            let maps = mesh
+                .element_coords
+                .iter()
+                .map(|xe| std::array::from_fn(|q| MapAt::of(xe, self.rule[q].0)))
+                .collect();
+            self.rule_maps = Some(((mesh.ax.clone(), mesh.ay.clone()), maps));
+        }
+        let rule_maps = &self.rule_maps.as_ref().expect("tabulated above").1;
         for e in 0..self.n_elements {
-            let points: &[([f64; 2], f64)] = match &self.cuts[e] {
+            let (points, maps): (&[([f64; 2], f64)], _) = match &self.cuts[e] {
                 ElementCut::Inside => continue,
-                ElementCut::Fluid => &self.rule,
-                ElementCut::Cut(c) => &c.vol,
+                ElementCut::Fluid => (&self.rule, Some(&rule_maps[e][..])),
+                ElementCut::Cut(c) => (&c.vol, None),
             };
             let nodes = &mesh.elements[e];
             let verts = &mesh.element_vertices[e];
@@ -439,7 +483,7 @@ impl LogConformationTransport {
                     }
                 }
             }
-            transport_element_kernel(&el, points, model, self.supg, dt, a0, &mut k, &mut f);
+            transport_element_kernel(&el, points, maps, model, self.supg, dt, a0, &mut k, &mut f);
             for a in 0..4 {
                 kflat[4 * a..4 * a + 4].copy_from_slice(&k[a]);
             }
