@@ -138,3 +138,61 @@ fn nodes_beyond_the_ring_are_their_own_pre_images_and_the_ring_maps_exactly() {
 fn at_n_minus_1_is_identity(at: &[StencilWeights], v: usize) -> bool {
     at[v].0[0] == v && at[v].1[0] == 1.0 && at[v].1[1..].iter().all(|&w| w == 0.0)
 }
+
+/// On the annulus (the Couette cell, periodic in θ) with the particle across the θ seam: the
+/// ring wraps around the seam, the patch moves rigidly, the walls and the far side of the cell
+/// stay, and every node's pre-image is found over second-order steps.
+#[test]
+fn a_ring_map_on_the_annulus_wraps_around_the_seam() {
+    let g = crate::geometry::CouetteGeometry::new(1.0, 4.0, 1.0).unwrap();
+    let mesh = g.build_mesh(64, 12);
+    let mut ale = ring(&mesh);
+    ale.remap = Remap::Cubic;
+    let (a, dt) = (0.4, 0.25);
+    let mut c = g.position(0.5, 0.06);
+    let step = [0.0, -0.05];
+    let mut last = None;
+    for first in [true, false, false] {
+        let moves = vec![RigidMove {
+            center: c,
+            radius: a,
+            displacement: step,
+        }];
+        last = Some(
+            ale.advance(&mesh, &moves, None, dt, bdf_of(first))
+                .expect("every pre-image found"),
+        );
+        c = [c[0] + step[0], c[1] + step[1]];
+    }
+    let m = last.unwrap();
+    let c_prev = [c[0] - step[0], c[1] - step[1]];
+    let (mut rigid, mut still_far) = (0, 0);
+    for (k, x) in mesh.nodes.iter().enumerate() {
+        let u = m.mesh_velocity[k];
+        let r = (x[0] - c_prev[0]).hypot(x[1] - c_prev[1]);
+        if r < 0.5 * a {
+            assert!((u[0] - step[0] / dt).abs() + (u[1] - step[1] / dt).abs() < 1e-9);
+            rigid += 1;
+        }
+        // the far side of the cell (x < −1: the particle is at x ≈ 2.5, y ≈ 0)
+        if x[0] < -1.0 {
+            assert_eq!(u, [0.0, 0.0], "{x:?}");
+            still_far += 1;
+        }
+        let on_wall =
+            (x[0].hypot(x[1]) - 1.0).abs() < 1e-9 || (x[0].hypot(x[1]) - 4.0).abs() < 1e-9;
+        if on_wall {
+            assert!(u[0].abs() + u[1].abs() < 1e-12, "{x:?}: {u:?}");
+        }
+    }
+    // the patch holds nodes on both sides of the seam (θ = 0 is the +x axis)
+    let across = mesh
+        .nodes
+        .iter()
+        .filter(|x| (x[0] - c_prev[0]).hypot(x[1] - c_prev[1]) < 0.5 * a && x[1] < 0.0);
+    assert!(across.count() > 0);
+    assert!(
+        rigid >= 4 && still_far > 100,
+        "{rigid} rigid, {still_far} still"
+    );
+}
