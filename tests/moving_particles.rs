@@ -11,7 +11,7 @@ use xpflow::xfem::CutOptions;
 /// Largest difference of the particles' velocities (units of the wall speed) between the ring and
 /// the whole-mesh ALE map on the coarse three-particle run (see the test): a third of what the
 /// remap's order changes on the same run (bicubic against biquadratic, both on the whole mesh:
-/// 1.4e-3); measured 1.2e-4 (2026-12-06).
+/// 1.4e-3); measured 1.8e-5 with `RING_ELEMENTS` = 10 (1.2e-4 with 5), 2026-12-06.
 const RING_VELOCITY_TOL: f64 = 4e-4;
 
 /// Two particles at (∓0.25, ±0.06) in a confined shear channel H = 1, L = 2 (γ̇ = 1), and its

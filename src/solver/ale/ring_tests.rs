@@ -7,11 +7,14 @@ use super::tests::{bdf_of, LOCATE_TOL};
 use super::*;
 use crate::mesh::Axis;
 
-/// A channel long enough for the ring to end inside it: h = 0.05 (the patch of a = 0.15 spans
-/// about six elements, the ring five more on each side).
+/// Length (and period) of [`long_channel`].
+const LENGTH: f64 = 8.0;
+
+/// A channel long enough for the ring to end well inside it: h = 0.05 (the patch of a = 0.15
+/// spans about six elements, the ring [`RING_ELEMENTS`] more on each side).
 fn long_channel() -> Mesh {
     Mesh::rectangle(
-        Axis::uniform(-2.0, 2.0, 80),
+        Axis::uniform(-0.5 * LENGTH, 0.5 * LENGTH, 160),
         Axis::uniform(-0.5, 0.5, 20),
         true,
     )
@@ -29,15 +32,17 @@ const SOLVE_TOL: f64 = 1e-11;
 #[test]
 fn a_ring_map_is_rigid_on_the_patch_harmonic_and_zero_beyond_the_ring() {
     let mesh = long_channel();
-    let (c, a, disp) = ([1.9, 0.05], 0.15, [0.012, -0.004]);
+    let (c, a, disp) = ([0.5 * LENGTH - 0.1, 0.05], 0.15, [0.012, -0.004]);
     let moves = vec![RigidMove {
         center: c,
         radius: a,
         displacement: disp,
     }];
-    let d = ring(&mesh).displacement(&mesh, &moves, Some(4.0)).unwrap();
+    let d = ring(&mesh)
+        .displacement(&mesh, &moves, Some(LENGTH))
+        .unwrap();
     let whole = TemporaryAle::new(&mesh)
-        .displacement(&mesh, &moves, Some(4.0))
+        .displacement(&mesh, &moves, Some(LENGTH))
         .unwrap();
     // the ring's outer edge: the patch's elements reach a + h√2 from the centre, the ring
     // RING_ELEMENTS elements beyond (in index space: up to √2 further in a corner)
@@ -47,7 +52,7 @@ fn a_ring_map_is_rigid_on_the_patch_harmonic_and_zero_beyond_the_ring() {
     for (v, &k) in mesh.node_of_vertex.iter().enumerate() {
         let x = mesh.nodes[k];
         // across the periodic seam
-        let dx = (x[0] - c[0]) - 4.0 * ((x[0] - c[0]) / 4.0).round();
+        let dx = (x[0] - c[0]) - LENGTH * ((x[0] - c[0]) / LENGTH).round();
         let r = dx.hypot(x[1] - c[1]);
         if r < a {
             assert!((d[v][0] - disp[0]).abs() + (d[v][1] - disp[1]).abs() < SOLVE_TOL);
@@ -88,7 +93,7 @@ fn nodes_beyond_the_ring_are_their_own_pre_images_and_the_ring_maps_exactly() {
             displacement: step,
         }];
         let m = ale
-            .advance(&mesh, &moves, Some(4.0), dt, bdf_of(first))
+            .advance(&mesh, &moves, Some(LENGTH), dt, bdf_of(first))
             .unwrap();
         last = Some((m, ale.last_displacement().unwrap().to_vec()));
         c = [c[0] + step[0], c[1] + step[1]];
@@ -104,7 +109,7 @@ fn nodes_beyond_the_ring_are_their_own_pre_images_and_the_ring_maps_exactly() {
     let mut own = 0;
     for (vtx, &k) in mesh.node_of_vertex.iter().enumerate() {
         let x = mesh.nodes[k];
-        let (e, xi, xn) = pre_image(&mesh, &d, x, Some(4.0), None).unwrap();
+        let (e, xi, xn) = pre_image(&mesh, &d, x, Some(LENGTH), None).unwrap();
         if d[vtx] == [0.0, 0.0] && xn == x {
             // no interpolation beyond the ring: the history stays as it is, the mesh still
             if at_n_minus_1_is_identity(at_nm1, vtx) {
@@ -123,7 +128,7 @@ fn nodes_beyond_the_ring_are_their_own_pre_images_and_the_ring_maps_exactly() {
             assert!((back - x[i]).abs() < LOCATE_TOL, "{x:?}");
         }
         // (the field is not periodic: away from the seam)
-        if x[0].abs() < 1.5 {
+        if x[0].abs() < 0.5 * LENGTH - 0.5 {
             let g = carried(&m.at_n[vtx]);
             assert!((g - bicubic_field(xn)).abs() < 1e-9, "{x:?}: {g}");
         }
