@@ -4,6 +4,8 @@
 //! `b`-th in η, with 1D nodes ordered −1, (0,) +1. So Q1 corners are 0:(−1,−1), 1:(1,−1),
 //! 2:(−1,1), 3:(1,1), and the Q2 corners are nodes 0, 2, 6, 8 with the centre node 4.
 
+use crate::mesh::{Axis, Mesh};
+
 /// 1D linear Lagrange basis on [-1, 1] at nodes −1, 1: values and derivatives.
 #[inline]
 fn lagrange1(x: f64) -> ([f64; 2], [f64; 2]) {
@@ -94,30 +96,61 @@ pub fn physical_gradients<const N: usize>(
     dref: &[[f64; 2]; N],
     out: &mut [[f64; 2]; N],
 ) {
-    gradients_with(&inverse_jacobian(jac, det), dref, out);
-}
-
-/// J⁻¹ = adj(J)/det, `[[∂ξ/∂x, ∂ξ/∂y], [∂η/∂x, ∂η/∂y]]`: what [`physical_gradients`] applies,
-/// for a caller that tabulates it.
-#[inline]
-pub fn inverse_jacobian(jac: &[[f64; 2]; 2], det: f64) -> [[f64; 2]; 2] {
-    [
+    // J^{-1} = adj(J)/det; ∇N_i = Σ_d (J^{-1})_{d i} ∂N/∂ξ_d
+    let inv = [
         [jac[1][1] / det, -jac[0][1] / det],
         [-jac[1][0] / det, jac[0][0] / det],
-    ]
-}
-
-/// Physical gradients from reference gradients with a given J⁻¹ ([`inverse_jacobian`]):
-/// ∇N_i = Σ_d (J⁻¹)_{d i} ∂N/∂ξ_d — bitwise what [`physical_gradients`] computes.
-#[inline]
-pub fn gradients_with<const N: usize>(
-    inv: &[[f64; 2]; 2],
-    dref: &[[f64; 2]; N],
-    out: &mut [[f64; 2]; N],
-) {
+    ];
     for k in 0..N {
         let (a, b) = (dref[k][0], dref[k][1]);
         out[k] = [inv[0][0] * a + inv[1][0] * b, inv[0][1] * a + inv[1][1] * b];
+    }
+}
+
+/// What [`q2_map`] returns at a point: the physical point, J and det J.
+pub type MapAt = ([f64; 2], [[f64; 2]; 2], f64);
+
+/// Points of the element rule the solvers integrate uncut elements with (3×3 Gauss).
+pub const RULE_POINTS: usize = 9;
+
+/// [`q2_map`] of every element of a mesh at the points of the element rule, tabulated once per
+/// mesh geometry: the assemblies of uncut elements read it instead of evaluating the map at
+/// every point and step (the same numbers, bitwise).
+#[derive(Debug, Clone, Default)]
+pub struct RuleMaps {
+    /// The mesh axes the table belongs to.
+    axes: Option<(Axis, Axis)>,
+    maps: Vec<[MapAt; RULE_POINTS]>,
+}
+
+impl RuleMaps {
+    /// The maps of `mesh`'s elements at `points` (the element rule's).
+    ///
+    /// # Panics
+    /// If there are not [`RULE_POINTS`] points.
+    pub fn of(mesh: &Mesh, points: &[[f64; 2]]) -> Self {
+        assert_eq!(points.len(), RULE_POINTS, "the 3×3 Gauss rule");
+        Self {
+            axes: Some((mesh.ax.clone(), mesh.ay.clone())),
+            maps: mesh
+                .element_coords
+                .iter()
+                .map(|xe| std::array::from_fn(|q| q2_map(xe, points[q])))
+                .collect(),
+        }
+    }
+
+    /// Whether the table was made for a mesh with `mesh`'s axes (the structured meshes'
+    /// coordinates follow from them).
+    pub fn fits(&self, mesh: &Mesh) -> bool {
+        self.axes
+            .as_ref()
+            .is_some_and(|(ax, ay)| (ax, ay) == (&mesh.ax, &mesh.ay))
+    }
+
+    /// Element `e`'s maps at the rule's points.
+    pub fn at(&self, e: usize) -> &[MapAt; RULE_POINTS] {
+        &self.maps[e]
     }
 }
 

@@ -37,12 +37,12 @@
 
 use std::time::Instant;
 
-use crate::fem::element::{physical_gradients, q1, q2, q2_map};
+use crate::fem::element::{physical_gradients, q1, q2, q2_map, MapAt, RuleMaps};
 use crate::fem::ilu::Ilu0;
 use crate::fem::linsolve::{DirectSolver, SolveError};
 use crate::fem::quadrature::gauss_quad;
 use crate::fem::sparse::{q1_pattern, SparseMatrix};
-use crate::mesh::{Axis, Mesh};
+use crate::mesh::Mesh;
 use crate::rheology::{log_conformation_rhs, Giesekus, Sym2, VelocityGradient};
 use crate::solver::ghost::{face_vertices, ghost_face_matrix, ghost_faces, FacePattern, GhostFace};
 pub use crate::solver::log_conformation_history::LogConformationHistory;
@@ -129,7 +129,7 @@ pub struct TransportElement<'a> {
 /// for the quadrature `points` (reference point, reference weight). `a0` is `c₀/Δt` (BDF2: 3/(2Δt) for equal steps) or
 /// `1/Δt` (Euler). Overwrites `k` and `f`.
 ///
-/// `maps`: the element map at the points (J, det J), if the caller tabulated it; else it is
+/// `maps`: the element map at the points ([`RuleMaps`]), if the caller tabulated it; else it is
 /// evaluated at every point.
 #[allow(clippy::too_many_arguments)]
 pub fn transport_element_kernel(
@@ -147,9 +147,9 @@ pub fn transport_element_kernel(
     *f = [Sym2::ZERO; 4];
     let mut dpsi = [[0.0; 2]; 4];
     for (q, &(xi, wref)) in points.iter().enumerate() {
-        let MapAt { jac, det } = match maps {
+        let (_, jac, det) = match maps {
             Some(m) => m[q],
-            None => MapAt::of(el.xe, xi),
+            None => q2_map(el.xe, xi),
         };
         let (psi, dref) = q1(xi);
         physical_gradients(&jac, det, &dref, &mut dpsi);
@@ -187,27 +187,6 @@ pub fn transport_element_kernel(
     }
 }
 
-/// The element map at a point: its Jacobian J and det J.
-#[derive(Debug, Clone, Copy)]
-pub struct MapAt {
-    /// J = ∂x/∂ξ.
-    pub jac: [[f64; 2]; 2],
-    /// det J.
-    pub det: f64,
-}
-
-impl MapAt {
-    /// The map of the Q2 element with nodes `xe` at `xi`.
-    pub fn of(xe: &[[f64; 2]; 9], xi: [f64; 2]) -> Self {
-        let (_, jac, det) = q2_map(xe, xi);
-        Self { jac, det }
-    }
-}
-
-/// The element maps of a mesh at the points of the full rule (3×3 Gauss), and the axes of the
-/// mesh they belong to.
-type RuleMaps = ((Axis, Axis), Vec<[MapAt; 9]>);
-
 /// The matrix positions of the inflow rows' entries, and each active inflow vertex with the
 /// position of its diagonal and its value.
 type InflowRows = (Vec<usize>, Vec<(usize, usize, Sym2)>);
@@ -235,7 +214,7 @@ pub struct LogConformationTransport {
     pub stats: TransportStats,
     rule: Vec<([f64; 2], f64)>,
     /// The element maps at the points of `rule`, for the mesh of the last assembly.
-    rule_maps: Option<RuleMaps>,
+    rule_maps: RuleMaps,
     cuts: Vec<ElementCut>,
     /// Faces with a ghost penalty (interior faces of cut elements).
     ghost: Vec<GhostFace>,
@@ -278,7 +257,7 @@ impl LogConformationTransport {
             direct: false,
             stats: TransportStats::default(),
             rule: rule.points.into_iter().zip(rule.weights).collect(),
-            rule_maps: None,
+            rule_maps: RuleMaps::default(),
             cuts: vec![ElementCut::Fluid; mesh.n_elements()],
             ghost: Vec::new(),
             face_pattern: FacePattern::default(),
@@ -435,23 +414,14 @@ impl LogConformationTransport {
         let (mut k, mut f) = ([[0.0; 4]; 4], [Sym2::ZERO; 4]);
         let mut kflat = [0.0; 16];
         let mut fc = [0.0; 4];
-        if self
-            .rule_maps
-            .as_ref()
-            .is_none_or(|((ax, ay), _)| (ax, ay) != (&mesh.ax, &mesh.ay))
-        {
-            let maps = mesh
-                .element_coords
-                .iter()
-                .map(|xe| std::array::from_fn(|q| MapAt::of(xe, self.rule[q].0)))
-                .collect();
-            self.rule_maps = Some(((mesh.ax.clone(), mesh.ay.clone()), maps));
+        if !self.rule_maps.fits(mesh) {
+            let points: Vec<[f64; 2]> = self.rule.iter().map(|&(xi, _)| xi).collect();
+            self.rule_maps = RuleMaps::of(mesh, &points);
         }
-        let rule_maps = &self.rule_maps.as_ref().expect("tabulated above").1;
         for e in 0..self.n_elements {
             let (points, maps): (&[([f64; 2], f64)], _) = match &self.cuts[e] {
                 ElementCut::Inside => continue,
-                ElementCut::Fluid => (&self.rule, Some(&rule_maps[e][..])),
+                ElementCut::Fluid => (&self.rule, Some(&self.rule_maps.at(e)[..])),
                 ElementCut::Cut(c) => (&c.vol, None),
             };
             let nodes = &mesh.elements[e];

@@ -8,7 +8,7 @@
 //! - `*_at` functions: values and physical gradients of nodal Q1 (and Q2 velocity) fields at a
 //!   reference point of an element, as the polymer stress of the flow solve needs them.
 
-use crate::fem::element::{gradients_with, inverse_jacobian, physical_gradients, q1, q2, q2_map};
+use crate::fem::element::{physical_gradients, q1, q2, q2_map, MapAt, RuleMaps, RULE_POINTS};
 use crate::fem::linsolve::{DirectSolver, SolverKind};
 use crate::fem::quadrature::gauss_quad;
 use crate::fem::sparse::{q1_pattern, SparseMatrix};
@@ -122,12 +122,9 @@ pub struct Q1Projection {
     rule: Vec<([f64; 2], f64)>,
     /// Q1 shape values at the points of `rule`.
     rule_psi: Vec<[f64; 4]>,
-    /// Per element, weight × det J at the points of `rule` (for the mesh geometry in use; empty
-    /// until the first projection and after [`geometry_changed`](Self::geometry_changed)).
-    rule_wdet: Vec<[f64; FULL_POINTS]>,
-    /// Per element, J⁻¹ at the points of `rule` (tabulated with `rule_wdet`): the integrands'
-    /// physical gradients on uncut elements without the element map at every point.
-    rule_jinv: Vec<[Jinv; FULL_POINTS]>,
+    /// The element maps at the points of `rule` (for the mesh geometry in use; empty until the
+    /// first projection and after [`geometry_changed`](Self::geometry_changed)).
+    maps: RuleMaps,
     cuts: Vec<ElementCut>,
     ghost: Vec<GhostFace>,
     /// The faces the pattern of `matrix` holds.
@@ -139,16 +136,9 @@ pub struct Q1Projection {
 /// smooth extension, which the temporary ALE map then interpolates at other points.
 pub const PROJECTION_GHOST_PENALTY: f64 = 1e-4;
 
-/// Points of the rule on an uncut element (3×3 Gauss).
-const FULL_POINTS: usize = 9;
-
-/// The inverse Jacobian of an element map at a point, `[[∂ξ/∂x, ∂ξ/∂y], [∂η/∂x, ∂η/∂y]]`, as
-/// [`physical_gradients`] forms it.
-type Jinv = [[f64; 2]; 2];
-
-/// A point of the integrand on an uncut element: its index in the full rule and J⁻¹ there (on
-/// cut elements the integrand gets `None` and works from ξ alone).
-pub type FullPoint = Option<(usize, Jinv)>;
+/// A point of the integrand on an uncut element: its index in the full rule and the element map
+/// there (on cut elements the integrand gets `None` and works from ξ alone).
+pub type FullPoint = Option<(usize, MapAt)>;
 
 impl std::fmt::Debug for Q1Projection {
     fn fmt(&self, f: &mut std::fmt::Formatter<'_>) -> std::fmt::Result {
@@ -165,7 +155,7 @@ impl Q1Projection {
     pub fn new(mesh: &Mesh) -> Self {
         let nv = mesh.n_vertices();
         let rule = gauss_quad(3);
-        assert_eq!(rule.points.len(), FULL_POINTS, "3x3 Gauss");
+        assert_eq!(rule.points.len(), RULE_POINTS, "3x3 Gauss");
         Self {
             n_vertices: nv,
             matrix: q1_pattern(nv, &mesh.element_vertices),
@@ -174,8 +164,7 @@ impl Q1Projection {
             factored: false,
             rhs: Vec::new(),
             rule_psi: rule.points.iter().map(|&xi| q1(xi).0).collect(),
-            rule_wdet: Vec::new(),
-            rule_jinv: Vec::new(),
+            maps: RuleMaps::default(),
             rule: rule.points.into_iter().zip(rule.weights).collect(),
             cuts: vec![ElementCut::Fluid; mesh.n_elements()],
             ghost: Vec::new(),
@@ -206,8 +195,7 @@ impl Q1Projection {
     /// Marks the geometry as changed (moved mesh nodes): refactor on the next projection.
     pub fn geometry_changed(&mut self) {
         self.factored = false;
-        self.rule_wdet.clear();
-        self.rule_jinv.clear();
+        self.maps = RuleMaps::default();
     }
 
     /// The element classification in use.
@@ -215,25 +203,12 @@ impl Q1Projection {
         &self.cuts
     }
 
-    /// Weight × det J of the uncut elements' rule, once per geometry.
+    /// The uncut elements' maps at the rule's points, once per geometry.
     fn tabulate(&mut self, mesh: &Mesh) {
-        if self.rule_wdet.len() == mesh.n_elements() {
-            return;
+        if !self.maps.fits(mesh) {
+            let points: Vec<[f64; 2]> = self.rule.iter().map(|&(xi, _)| xi).collect();
+            self.maps = RuleMaps::of(mesh, &points);
         }
-        (self.rule_wdet, self.rule_jinv) = mesh
-            .element_coords
-            .iter()
-            .map(|xe| {
-                let mut wdet = [0.0; FULL_POINTS];
-                let mut jinv = [[[0.0; 2]; 2]; FULL_POINTS];
-                for ((wd, ji), &(xi, w)) in wdet.iter_mut().zip(&mut jinv).zip(&self.rule) {
-                    let (_, jac, det) = q2_map(xe, xi);
-                    *wd = w * det;
-                    *ji = inverse_jacobian(&jac, det);
-                }
-                (wdet, jinv)
-            })
-            .unzip();
     }
 
     fn refresh(&mut self, mesh: &Mesh) -> Result<(), ConstitutiveError> {
@@ -253,8 +228,10 @@ impl Q1Projection {
             match &self.cuts[e] {
                 ElementCut::Inside => continue,
                 ElementCut::Fluid => {
-                    for (wq, psi) in self.rule_wdet[e].iter().zip(&self.rule_psi) {
-                        add(*wq, psi);
+                    for ((map, psi), &(_, w)) in
+                        self.maps.at(e).iter().zip(&self.rule_psi).zip(&self.rule)
+                    {
+                        add(w * map.2, psi);
                     }
                 }
                 ElementCut::Cut(c) => {
@@ -337,13 +314,15 @@ impl Q1Projection {
             match &self.cuts[e] {
                 ElementCut::Inside => continue,
                 ElementCut::Fluid => {
-                    for (q, ((wq, psi), &(xi, _))) in self.rule_wdet[e]
+                    for (q, ((map, psi), &(xi, w))) in self
+                        .maps
+                        .at(e)
                         .iter()
                         .zip(&self.rule_psi)
                         .zip(&self.rule)
                         .enumerate()
                     {
-                        add(*wq, psi, f(e, xi, Some((q, self.rule_jinv[e][q]))));
+                        add(w * map.2, psi, f(e, xi, Some((q, *map))));
                     }
                 }
                 ElementCut::Cut(c) => {
@@ -425,10 +404,10 @@ impl Q1Projection {
             mesh,
             |e, xi, full| {
                 let l = match full {
-                    // the reference gradients and J⁻¹ tabulated at the full rule's points
-                    Some((q, inv)) => {
+                    // the reference gradients and the map tabulated at the full rule's points
+                    Some((q, (_, jac, det))) => {
                         let mut dn = [[0.0; 2]; 9];
-                        gradients_with(&inv, &dq2[q], &mut dn);
+                        physical_gradients(&jac, det, &dq2[q], &mut dn);
                         gradient_of(&dn, u, &mesh.elements[e])
                     }
                     None => velocity_gradient_at(mesh, u, e, xi),

@@ -33,6 +33,9 @@ pub(super) struct LaplaceSystem {
     elements: Vec<(usize, [usize; 4])>,
     /// Local vertex → vertex of the mesh.
     global: Vec<usize>,
+    /// Per local vertex, whether it lies on the region's boundary (a vertex of an element
+    /// outside it): the displacement is zero there.
+    on_edge: Vec<bool>,
     matrix: SparseMatrix,
     solver: Option<DirectSolver>,
     /// The fixed local vertices `solver` was factored for (empty: not factored).
@@ -57,26 +60,21 @@ impl LaplaceSystem {
             })
             .collect();
         let locals: Vec<[usize; 4]> = elements.iter().map(|(_, v)| *v).collect();
+        let mut edge = vec![false; mesh.n_vertices()];
+        for e in (0..mesh.n_elements()).filter(|&e| !region[e]) {
+            for &v in &mesh.element_vertices[e] {
+                edge[v] = true;
+            }
+        }
         Self {
             matrix: q1_pattern(global.len(), &locals),
+            on_edge: global.iter().map(|&v| edge[v]).collect(),
             region,
             elements,
             global,
             solver: None,
             factored_mask: Vec::new(),
         }
-    }
-
-    /// Whether each local vertex lies on the region's boundary (a vertex of an element outside
-    /// it): the displacement is zero there. None when the region is the whole mesh.
-    fn boundary(&self, mesh: &Mesh) -> Vec<bool> {
-        let mut edge = vec![false; mesh.n_vertices()];
-        for e in (0..mesh.n_elements()).filter(|&e| !self.region[e]) {
-            for &v in &mesh.element_vertices[e] {
-                edge[v] = true;
-            }
-        }
-        self.global.iter().map(|&v| edge[v]).collect()
     }
 
     /// The harmonic displacement at the local vertices with the `fixed` values (the symmetric
@@ -228,11 +226,10 @@ impl TemporaryAle {
         let system = self.system.as_mut().expect("set above");
         // the fixed vertices of the region's problem: walls, the vertices outside the fluid and
         // the region's boundary (zero), the rigid patches (their moves less the background)
-        let on_edge = system.boundary(mesh);
         let fixed: Vec<Option<[f64; 2]>> = system
             .global
             .iter()
-            .zip(&on_edge)
+            .zip(&system.on_edge)
             .map(|(&v, &edge)| {
                 if self.wall[v] || edge || outside.is_some_and(|o| o[v]) {
                     Some([0.0; 2])

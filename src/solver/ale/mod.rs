@@ -322,24 +322,27 @@ impl TemporaryAle {
             let x = new.nodes[k];
             let home = homes.and_then(|h| h[k]);
             let v = new.vertex_of_node[k];
-            if let Some((e, _)) = home.filter(|&(e, _)| still(&d_new, e)) {
-                if let Some(v) = v {
-                    at_n[v] = identity(v);
-                }
-                match (&d_old, at_nm1.as_mut()) {
-                    (Some(d_old), Some(at)) if moved.is_none() && still(d_old, e) => {
-                        if let Some(v) = v {
-                            at[v] = identity(v);
-                        }
-                        continue;
-                    }
-                    (None, _) => continue,
-                    _ => {}
-                }
-            }
-            let (e1, xi1, xn) = pre_image(old, &d_new, x, period, home)?;
+            let own = home.filter(|&(e, _)| still(&d_new, e));
+            let (e1, xi1, xn) = match own {
+                Some((e, xi)) => (e, xi, x),
+                None => pre_image(old, &d_new, x, period, home)?,
+            };
             if let Some(v) = v {
-                at_n[v] = stencil(old, e1, xi1, self.remap);
+                at_n[v] = match own {
+                    Some(_) => identity(v),
+                    None => stencil(old, e1, xi1, self.remap),
+                };
+            }
+            // still at both levels (the mesh of s^{n−1} being `old`): no mesh velocity
+            if own.is_some()
+                && d_old
+                    .as_ref()
+                    .is_none_or(|d| moved.is_none() && still(d, e1))
+            {
+                if let (Some(v), Some(at)) = (v, at_nm1.as_mut()) {
+                    at[v] = identity(v);
+                }
+                continue;
             }
             let u = match &d_old {
                 None => [(x[0] - xn[0]) / dt, (x[1] - xn[1]) / dt],

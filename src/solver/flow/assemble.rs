@@ -6,13 +6,11 @@
 
 use std::collections::HashMap;
 
-use super::cache::{
-    assembled_each_step, canonical_rectangle, BasePoint, GhostPatch, RECTANGLE_CACHE_LEN,
-};
+use super::cache::{assembled_each_step, canonical_rectangle, GhostPatch, RECTANGLE_CACHE_LEN};
 use super::dofs::{element_dofs, MAX_EL_DOFS};
 use super::kernels::{fluid_element_matrix, shape_table, stokes_kernel};
 use super::Stokes;
-use crate::fem::element::{gradients_with, inverse_jacobian, physical_gradients, q1, q2, q2_map};
+use crate::fem::element::{physical_gradients, q1, q2, q2_map};
 use crate::mesh::Shape;
 use crate::solver::ghost::{ghost_faces, FaceSide, GhostFace};
 use crate::solver::lubrication::films;
@@ -87,27 +85,22 @@ impl Stokes {
             match cut {
                 None if in_base || by_sides => {
                     // the Stokes matrix is in the base or known from the sides: the loads and
-                    // the semi-implicit stress's matrix only (a base element's geometry from
-                    // the base's table)
+                    // the semi-implicit stress's matrix only (a base element's map from the
+                    // base's table)
                     for (q, ((n2, dref), _)) in tab.iter().enumerate() {
-                        let at = if in_base {
-                            base.points[e][q]
+                        let (x, jac, det) = if in_base {
+                            base.maps.at(e)[q]
                         } else {
-                            let (x, jac, det) = q2_map(xe, self.rule.points[q]);
-                            BasePoint {
-                                x,
-                                w: self.rule.weights[q] * det,
-                                inv: inverse_jacobian(&jac, det),
-                            }
+                            q2_map(xe, self.rule.points[q])
                         };
-                        let (x, w) = (at.x, at.w);
+                        let w = self.rule.weights[q] * det;
                         let force = f(x);
                         for a in 0..9 {
                             fe[2 * a] += w * n2[a] * force[0];
                             fe[2 * a + 1] += w * n2[a] * force[1];
                         }
                         if let Some(ps) = stress {
-                            gradients_with(&at.inv, dref, &mut dn);
+                            physical_gradients(&jac, det, dref, &mut dn);
                             let lin = ps.at(e, self.rule.points[q], x, false);
                             volume_terms(ke, fe, ndc, w, n2, &dn, &lin);
                         }

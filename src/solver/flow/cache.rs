@@ -9,7 +9,7 @@ use super::dofs::{element_dofs, MAX_EL_DOFS};
 use super::kernels::{fluid_element_matrix, shape_table};
 use super::pattern::Reach;
 use super::Stokes;
-use crate::fem::element::{inverse_jacobian, q2_map};
+use crate::fem::element::RuleMaps;
 use crate::fem::quadrature::QuadRule;
 use crate::fem::sparse::SparseMatrix;
 use crate::mesh::{bounding_box, Mesh};
@@ -111,53 +111,24 @@ pub(super) const NOT_IN_PATTERN: u32 = u32::MAX;
 pub(super) type RectangleMatrices = (f64, f64, HashMap<[u64; 2], Box<[f64]>>);
 
 /// The fluid base of [`Stokes`]: the matrix values of the elements outside every reach and the
-/// moving-element mask, the (η, θ) they were built with, and those elements' geometry at the
-/// rule's points (their coordinates do not change while the base lasts), from which a step
-/// assembles their loads.
+/// moving-element mask, the (η, θ) they were built with, and the element maps at the rule's
+/// points (a base element's coordinates do not change while the base lasts), from which a step
+/// assembles those elements' loads.
 pub(super) struct FluidBase {
     pub values: Vec<f64>,
     pub eta: f64,
     pub theta: f64,
-    /// Per element and rule point: x, weight × det J and J⁻¹ (meaningful for the base's
-    /// elements only).
-    pub points: Vec<[BasePoint; BASE_POINTS]>,
-}
-
-/// Points of the flow's element rule (3×3 Gauss).
-pub(super) const BASE_POINTS: usize = 9;
-
-/// A rule point of a base element: position, weight × det J, J⁻¹.
-#[derive(Clone, Copy, Default)]
-pub(super) struct BasePoint {
-    pub x: [f64; 2],
-    pub w: f64,
-    pub inv: [[f64; 2]; 2],
+    pub maps: RuleMaps,
 }
 
 impl Stokes {
     /// The fluid base for the current reach, mask and (η, θ).
     pub(super) fn fluid_base(&mut self) -> FluidBase {
-        assert_eq!(self.rule.points.len(), BASE_POINTS, "3×3 Gauss");
-        let points = self
-            .mesh
-            .element_coords
-            .iter()
-            .map(|xe| {
-                std::array::from_fn(|q| {
-                    let (x, jac, det) = q2_map(xe, self.rule.points[q]);
-                    BasePoint {
-                        x,
-                        w: self.rule.weights[q] * det,
-                        inv: inverse_jacobian(&jac, det),
-                    }
-                })
-            })
-            .collect();
         FluidBase {
             values: self.fluid_values(),
             eta: self.params.eta,
             theta: self.params.theta,
-            points,
+            maps: RuleMaps::of(&self.mesh, &self.rule.points),
         }
     }
 }
