@@ -160,6 +160,9 @@ pub struct MovingBench {
     /// GMRES iterations that polished inexact flow solves over the run (0: every direct solve
     /// met the residual tolerance).
     pub polish_iterations: usize,
+    /// Band factorizations without pivots redone with pivoting over the run (their solve
+    /// missed the residual tolerance).
+    pub pivoted_refactors: usize,
     /// How the log-conformation transport steps of the run were solved.
     pub transport: crate::solver::constitutive::TransportStats,
     /// Steps of the run (warm-up included).
@@ -347,6 +350,7 @@ pub fn moving(
                 path,
                 placements: flow.flow_placements(),
                 polish_iterations: flow.flow_solver_stats().krylov_iterations,
+                pivoted_refactors: flow.flow_solver_stats().pivoted_refactors,
                 transport: flow.transport_stats(),
                 run_steps: warm_up + steps,
                 peak_rss_mb,
@@ -366,12 +370,12 @@ pub fn current_rss_mb() -> Option<f64> {
 
 impl MovingBench {
     /// Markdown table header matching [`to_row`](Self::to_row).
-    pub const HEADER: &'static str = "| mesh | particles | factorization | flow / stress unknowns | ALE | classify | flow asm | flow sym + placement | flow factor | flow solve | G proj | s asm | s factor | s solve | c proj | step | step (mean) | pattern rebuilds | placements | flow factorizations | polish iterations | s: GMRES iterations / LU steps | peak RSS |\n|---|---|---|---|---|---|---|---|---|---|---|---|---|---|---|---|---|---|---|---|---|---|---|";
+    pub const HEADER: &'static str = "| mesh | particles | factorization | flow / stress unknowns | ALE | classify | flow asm | flow sym + placement | flow factor | flow solve | G proj | s asm | s factor | s solve | c proj | step | step (mean) | pattern rebuilds | placements | flow factorizations | polish iterations / pivoted refactors | s: GMRES iterations / LU steps | peak RSS |\n|---|---|---|---|---|---|---|---|---|---|---|---|---|---|---|---|---|---|---|---|---|---|---|";
 
     /// One markdown table row (seconds).
     pub fn to_row(&self) -> String {
         format!(
-            "| {} | {} | {} | {} / {} | {:.4} | {:.4} | {:.4} | {:.4} | {:.4} | {:.4} | {:.4} | {:.4} | {:.4} | {:.4} | {:.4} | **{:.3}** | {:.3} | {} of {} | {} | {} of {} | {} | {} / {} | {} |",
+            "| {} | {} | {} | {} / {} | {:.4} | {:.4} | {:.4} | {:.4} | {:.4} | {:.4} | {:.4} | {:.4} | {:.4} | {:.4} | {:.4} | **{:.3}** | {:.3} | {} of {} | {} | {} of {} | {} / {} | {} / {} | {} |",
             self.mesh,
             self.particles,
             self.path.label(),
@@ -396,6 +400,7 @@ impl MovingBench {
             self.flow_factorizations,
             self.run_steps + 1,
             self.polish_iterations,
+            self.pivoted_refactors,
             self.transport.krylov_iterations,
             self.transport.lu_steps,
             self.peak_rss_mb.map_or("—".into(), |m| format!("{m:.0} MB")),

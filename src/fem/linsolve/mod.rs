@@ -33,12 +33,14 @@ mod probe;
 mod schur;
 mod symmetric_part;
 mod trisolve;
+mod unpivoted;
 
 use order::block_amd_ordering;
 pub use order::DofBlocks;
 use probe::Probe;
 pub use probe::{ProbeVerdict, PROBE_MAX_UNKNOWNS};
 use symmetric_part::SymmetricPart;
+pub use unpivoted::Pivoting;
 
 /// Which factorization to use.
 #[derive(Debug, Clone, Copy, PartialEq, Eq)]
@@ -124,6 +126,10 @@ pub struct DirectSolver {
     /// pivoting changes it), and a work vector by position.
     at: Vec<usize>,
     work: Vec<f64>,
+    /// LBLᵀ: whether to try the factorization without pivots first, and whether the last one
+    /// was made without.
+    pivoting: Pivoting,
+    unpivoted: bool,
 }
 
 impl std::fmt::Debug for DirectSolver {
@@ -208,6 +214,7 @@ impl DirectSolver {
                         par,
                         Spec::<LbltParams, f64>::default(),
                     ),
+                    symbolic.factorize_numeric_ldlt_scratch::<f64>(par, Default::default()),
                     symbolic.solve_in_place_scratch::<f64>(1, par),
                 ]);
                 let len = symbolic.len_val();
@@ -244,7 +251,19 @@ impl DirectSolver {
             factor_time: 0.0,
             at: Vec::new(),
             work: Vec::new(),
+            pivoting: Pivoting::Always,
+            unpivoted: false,
         })
+    }
+
+    /// Sets how an LBLᵀ solver pivots from its next factorization on ([`Pivoting`]).
+    pub fn set_pivoting(&mut self, pivoting: Pivoting) {
+        self.pivoting = pivoting;
+    }
+
+    /// Whether the last factorization was made without pivots ([`Pivoting::WhenNeeded`]).
+    pub fn is_unpivoted(&self) -> bool {
+        self.factored && self.unpivoted
     }
 
     /// LBLᵀ: the dof at each position of the elimination order of the last factorization
@@ -264,16 +283,27 @@ impl DirectSolver {
     /// Numeric factorization of `a` (same pattern as at [`analyze`](Self::analyze)), reusing the
     /// symbolic analysis and the factor storage.
     pub fn factor(&mut self, a: &SparseMatrix) -> Result<(), SolveError> {
-        self.factor_scaled(a, true)
+        self.factor_scaled(a, true, self.pivoting)
+    }
+
+    /// [`factor`](Self::factor) with Bunch–Kaufman pivoting whatever the solver's
+    /// [`Pivoting`]: for a matrix whose unpivoted factor solved it inaccurately.
+    pub fn factor_pivoted(&mut self, a: &SparseMatrix) -> Result<(), SolveError> {
+        self.factor_scaled(a, true, Pivoting::Always)
     }
 
     /// Like [`factor`](Self::factor) for a matrix equilibrated already (the symmetric part of an
     /// equilibrated matrix): no second equilibration and copy.
     pub(super) fn factor_equilibrated(&mut self, a: &SparseMatrix) -> Result<(), SolveError> {
-        self.factor_scaled(a, false)
+        self.factor_scaled(a, false, self.pivoting)
     }
 
-    fn factor_scaled(&mut self, a: &SparseMatrix, equilibrate: bool) -> Result<(), SolveError> {
+    fn factor_scaled(
+        &mut self,
+        a: &SparseMatrix,
+        equilibrate: bool,
+        pivoting: Pivoting,
+    ) -> Result<(), SolveError> {
         assert_eq!(
             a.n(),
             self.n,
@@ -295,6 +325,28 @@ impl DirectSolver {
         }
         // (the LU's symbolic analysis above is paid once: not part of the comparison)
         let start = Instant::now();
+        self.unpivoted = false;
+        if pivoting == Pivoting::WhenNeeded {
+            if let Backend::Lblt {
+                symbolic,
+                l_values,
+                subdiag,
+                perm_fwd,
+                perm_inv,
+            } = &mut self.backend
+            {
+                // without pivots the factor of D A D is that of A scaled: no equilibration
+                let stack = MemStack::new(&mut self.buffer);
+                if unpivoted::factor_ldlt(symbolic, l_values, subdiag, perm_fwd, perm_inv, a, stack)
+                {
+                    self.scale.clear();
+                    self.scale.resize(self.n, 1.0);
+                    self.unpivoted = true;
+                    self.finish_factorization(start);
+                    return Ok(());
+                }
+            }
+        }
         let a: &SparseMatrix = if equilibrate {
             // cut elements with tiny fluid parts spread the entries over many orders of
             // magnitude, which the supernode-local pivoting of LBLᵀ handles poorly
@@ -346,13 +398,18 @@ impl DirectSolver {
                 }
             }
         }
+        self.finish_factorization(start);
+        Ok(())
+    }
+
+    /// Marks the solver factored at `start`'s cost; LBLᵀ: the positions of the new factor.
+    fn finish_factorization(&mut self, start: Instant) {
         self.factored = true;
         self.factor_time = start.elapsed().as_secs_f64();
         if matches!(self.backend, Backend::Lblt { .. }) {
             self.at = self.dof_at_positions();
             self.work.resize(self.n, 0.0);
         }
-        Ok(())
     }
 
     /// Solves A x = b in place (`rhs` holds b on entry and x on exit).
@@ -503,6 +560,12 @@ pub fn checked_solve(
 /// Most GMRES iterations polishing a direct solve in [`DirectSolver::solve_checked`]; a good
 /// factorization as preconditioner needs a handful.
 pub const MAX_POLISH_ITERATIONS: usize = 30;
+
+/// ‖b − A x‖/‖b‖ (or ‖b − A x‖ if b = 0); NaN or infinite for a non-finite x.
+pub fn relative_residual(a: &SparseMatrix, x: &[f64], b: &[f64]) -> f64 {
+    let mut r = vec![0.0; b.len()];
+    residual(a, x, b, &mut r)
+}
 
 /// r = b − A x; returns ‖r‖/‖b‖ (or ‖r‖ if b = 0).
 fn residual(a: &SparseMatrix, x: &[f64], b: &[f64], r: &mut [f64]) -> f64 {

@@ -208,3 +208,39 @@ fn a_probe_verdict_outlives_its_solver() {
         assert_eq!(lu, verdict == ProbeVerdict::Lu, "{verdict:?}");
     }
 }
+
+/// [`Pivoting::WhenNeeded`] factors without pivots where every pivot is nonzero (velocities
+/// before their pressures) and solves as the pivoted factor does; with a pressure first (a zero
+/// pivot) it falls back to the pivoted factor and still solves.
+#[test]
+fn an_unpivoted_factor_is_used_where_it_exists() {
+    // residual tolerance: round-off on an 8×8 well-conditioned system
+    const TOL: f64 = 1e-13;
+    let a = saddle(1.0);
+    let b: Vec<f64> = (0..8).map(|i| (0.7 * i as f64).cos()).collect();
+    let mut pivoted =
+        DirectSolver::analyze_with_order(&a, SolverKind::Lblt, &[0, 1, 2, 6, 3, 4, 5, 7]).unwrap();
+    pivoted.factor(&a).unwrap();
+    let mut y = vec![0.0; 8];
+    assert!(pivoted.solve_checked(&a, &b, &mut y, TOL).unwrap() < TOL);
+    assert!(!pivoted.is_unpivoted());
+    for (order, unpivoted) in [
+        ([0, 1, 2, 6, 3, 4, 5, 7], true),
+        ([6, 0, 1, 2, 7, 3, 4, 5], false),
+    ] {
+        let mut s = DirectSolver::analyze_with_order(&a, SolverKind::Lblt, &order).unwrap();
+        s.set_pivoting(Pivoting::WhenNeeded);
+        s.factor(&a).unwrap();
+        assert_eq!(s.is_unpivoted(), unpivoted, "order {order:?}");
+        let mut x = vec![0.0; 8];
+        assert!(s.solve_checked(&a, &b, &mut x, TOL).unwrap() < TOL);
+        let diff = x
+            .iter()
+            .zip(&y)
+            .map(|(p, q)| (p - q).abs())
+            .fold(0.0, f64::max);
+        assert!(diff < 1e-13, "order {order:?}: {diff:.2e}");
+        s.factor_pivoted(&a).unwrap();
+        assert!(!s.is_unpivoted());
+    }
+}

@@ -80,12 +80,8 @@ impl Stokes {
             }
             // the whole matrix's factorization is stale once the band solver takes over
             self.factored_values = None;
-            let placed = self
-                .dof_blocks()
-                .elimination_order(&self.matrix)
-                .and_then(|order| {
-                    Substructured::with_interface(&self.matrix, &band, &interface, &order)
-                });
+            let placed =
+                Substructured::with_interface(&self.matrix, &band, &interface, &self.dof_blocks());
             match placed {
                 Ok(solver) => self.band_solver = Some(solver),
                 Err(_) => {
@@ -98,6 +94,7 @@ impl Stokes {
         }
         let t1 = Instant::now();
         let solver = self.band_solver.as_mut().expect("placed above");
+        let pivoted_before = solver.pivoted_refactors();
         // (M keeps the values it was factored with: the whole matrix's are not copied)
         let solved = solver.factor(&self.matrix).and_then(|refactored| {
             let t2 = Instant::now();
@@ -112,6 +109,7 @@ impl Stokes {
             return Ok(None);
         };
         self.refactorizations += usize::from(refactored);
+        self.stats.pivoted_refactors += solver.pivoted_refactors() - pivoted_before;
 
         let times = SolveTimes {
             placement: (t1 - t0).as_secs_f64(),
