@@ -402,6 +402,24 @@ impl DirectSolver {
         Ok(())
     }
 
+    /// For a factor made without pivots: solves A x = A 1 and, when the relative residual misses
+    /// `tol` (the factor's growth spoiled it), refactors `a` with pivoting. Returns whether it
+    /// refactored. For a factor used many times, whose solves are not all checked.
+    pub fn check_unpivoted(&mut self, a: &SparseMatrix, tol: f64) -> Result<bool, SolveError> {
+        if !self.is_unpivoted() {
+            return Ok(false);
+        }
+        let mut b = vec![0.0; self.n];
+        a.matvec(&vec![1.0; self.n], &mut b);
+        let mut x = b.clone();
+        self.solve_in_place(&mut x)?;
+        if relative_residual(a, &x, &b) <= tol {
+            return Ok(false);
+        }
+        self.factor_pivoted(a)?;
+        Ok(true)
+    }
+
     /// Marks the solver factored at `start`'s cost; LBLᵀ: the positions of the new factor.
     fn finish_factorization(&mut self, start: Instant) {
         self.factored = true;

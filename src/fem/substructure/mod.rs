@@ -35,7 +35,9 @@
 //! are the whole mesh's, not the band's). M is factored without pivots first
 //! ([`Pivoting::WhenNeeded`]): its dense Γ block, which dominates, factors at the dense kernels'
 //! speed; a solve whose residual misses the tolerance refactors M with pivoting before any
-//! polishing ([`Substructured::pivoted_refactors`]).
+//! polishing ([`Substructured::pivoted_refactors`]). So is K, checked once by a test solve at
+//! the placement; its Γ then holds the factor's last positions, and S₀ is read from the Γ
+//! block alone.
 
 use std::collections::HashMap;
 
@@ -132,9 +134,15 @@ impl Substructured {
     /// Splits the dofs of `a` into the band (`band[d]`) and the far field, factors K (the far
     /// field and Γ, eliminated in the order `blocks` gives all dofs, with Γ last) and condenses
     /// it onto Γ, and analyses M (the band interior in the AMD order of its blocks, then Γ). The
-    /// band must not be empty.
-    pub fn new(a: &SparseMatrix, band: &[bool], blocks: &DofBlocks) -> Result<Self, SolveError> {
-        Self::with_interface(a, band, &Self::interface(a, band), blocks)
+    /// band must not be empty. K is factored without pivots unless a test solve misses `tol`,
+    /// the relative residual the solves must meet ([`DirectSolver::check_unpivoted`]).
+    pub fn new(
+        a: &SparseMatrix,
+        band: &[bool],
+        blocks: &DofBlocks,
+        tol: f64,
+    ) -> Result<Self, SolveError> {
+        Self::with_interface(a, band, &Self::interface(a, band), blocks, tol)
     }
 
     /// [`new`](Self::new) with Γ already found ([`interface`](Self::interface)).
@@ -143,6 +151,7 @@ impl Substructured {
         band: &[bool],
         gamma: &[bool],
         blocks: &DofBlocks,
+        tol: f64,
     ) -> Result<Self, SolveError> {
         // numberings in the elimination order: K = F then Γ, M = I then Γ
         let order = blocks.elimination_order(a)?;
@@ -173,7 +182,9 @@ impl Substructured {
             .collect();
         let k_order: Vec<usize> = (0..k_dofs.len()).collect();
         let mut k_solver = DirectSolver::analyze_with_order(&k, SolverKind::Lblt, &k_order)?;
+        k_solver.set_pivoting(Pivoting::WhenNeeded);
         k_solver.factor(&k)?;
+        k_solver.check_unpivoted(&k, tol)?;
         let gamma_k: Vec<usize> = (n_far..k_dofs.len()).collect();
         let schur = k_solver.schur_complement(&gamma_k)?;
         let k_trailing = k_solver.trailing_supernodes(&gamma_k)?;

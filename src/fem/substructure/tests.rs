@@ -108,7 +108,7 @@ fn chain_split() -> (usize, std::ops::Range<usize>, usize, Substructured) {
     let (n, range) = (90, 30..45);
     let a0 = chain(n, 2.0, range.clone());
     let nd = a0.n();
-    let sub = Substructured::new(&a0, &chain_band(n, nd), &chain_blocks(n, nd)).unwrap();
+    let sub = Substructured::new(&a0, &chain_band(n, nd), &chain_blocks(n, nd), 1e-10).unwrap();
     (n, range, nd, sub)
 }
 
@@ -207,10 +207,25 @@ fn an_inaccurate_unpivoted_band_is_refactored_with_pivoting() {
         let (a, blocks) = pivot_chain(sites, pairs.clone(), eps);
         let nd = a.n();
         let in_band: Vec<bool> = (0..nd).map(|d| d >= sites || band.contains(&d)).collect();
-        let mut sub = Substructured::new(&a, &in_band, &blocks).unwrap();
+        let mut sub = Substructured::new(&a, &in_band, &blocks, 1e-10).unwrap();
         let b: Vec<f64> = (0..nd).map(|i| (0.3 * i as f64).cos()).collect();
         let whole = DirectSolver::analyze_blocked(&a, SolverKind::Lblt, &blocks).unwrap();
         assert_solves_as(&mut sub, whole, &a, &b, &format!("eps {eps}"));
         assert_eq!(sub.pivoted_refactors(), refactors, "eps {eps}");
+    }
+}
+
+/// The placement's check of K's unpivoted factor: kept where it solves, replaced by the
+/// pivoted one where its growth spoiled it.
+#[test]
+fn a_useless_unpivoted_factor_fails_its_check() {
+    for (eps, refactored) in [(0.5, false), (1e-14, true)] {
+        let (a, blocks) = pivot_chain(40, 13..27, eps);
+        let mut s = DirectSolver::analyze_blocked(&a, SolverKind::Lblt, &blocks).unwrap();
+        s.set_pivoting(Pivoting::WhenNeeded);
+        s.factor(&a).unwrap();
+        assert!(s.is_unpivoted(), "eps {eps}: no zero pivot");
+        assert_eq!(s.check_unpivoted(&a, 1e-10).unwrap(), refactored, "eps {eps}");
+        assert_eq!(s.is_unpivoted(), !refactored, "eps {eps}");
     }
 }

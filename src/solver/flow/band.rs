@@ -80,8 +80,13 @@ impl Stokes {
             }
             // the whole matrix's factorization is stale once the band solver takes over
             self.factored_values = None;
-            let placed =
-                Substructured::with_interface(&self.matrix, &band, &interface, &self.dof_blocks());
+            let placed = Substructured::with_interface(
+                &self.matrix,
+                &band,
+                &interface,
+                &self.dof_blocks(),
+                RESIDUAL_TOL,
+            );
             match placed {
                 Ok(solver) => self.band_solver = Some(solver),
                 Err(_) => {
