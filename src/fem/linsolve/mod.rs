@@ -130,6 +130,7 @@ pub struct DirectSolver {
     /// was made without.
     pivoting: Pivoting,
     unpivoted: bool,
+    pivoted_refactors: usize,
 }
 
 impl std::fmt::Debug for DirectSolver {
@@ -253,12 +254,19 @@ impl DirectSolver {
             work: Vec::new(),
             pivoting: Pivoting::Always,
             unpivoted: false,
+            pivoted_refactors: 0,
         })
     }
 
     /// Sets how an LBLᵀ solver pivots from its next factorization on ([`Pivoting`]).
     pub fn set_pivoting(&mut self, pivoting: Pivoting) {
         self.pivoting = pivoting;
+    }
+
+    /// Factorizations without pivots that [`solve_checked`](Self::solve_checked) replaced by the
+    /// pivoted one (their solve missed the tolerance).
+    pub fn pivoted_refactors(&self) -> usize {
+        self.pivoted_refactors
     }
 
     /// Whether the last factorization was made without pivots ([`Pivoting::WhenNeeded`]).
@@ -469,7 +477,8 @@ impl DirectSolver {
     /// Solves and checks the relative residual against `tol`. When the direct solution misses it
     /// (cut elements with tiny fluid parts make the system ill-conditioned, and the LBLᵀ pivots
     /// only inside supernodes), GMRES preconditioned by the same factorization polishes it, at
-    /// most [`MAX_POLISH_ITERATIONS`] iterations.
+    /// most [`MAX_POLISH_ITERATIONS`] iterations. A factor made without pivots that misses it
+    /// is first replaced by the pivoted one ([`pivoted_refactors`](Self::pivoted_refactors)).
     pub fn solve_checked(
         &mut self,
         a: &SparseMatrix,
@@ -478,6 +487,17 @@ impl DirectSolver {
         tol: f64,
     ) -> Result<f64, SolveError> {
         let start = Instant::now();
+        if self.is_unpivoted() {
+            x.copy_from_slice(b);
+            self.solve_in_place(x)?;
+            let res = relative_residual(a, x, b);
+            if res <= tol {
+                self.last_polish = 0;
+                return Ok(res);
+            }
+            self.factor_pivoted(a)?;
+            self.pivoted_refactors += 1;
+        }
         let solved = checked_solve(a, b, x, tol, &mut |v| self.solve_in_place(v));
         let (res, polish) = match solved {
             Err(SolveError::Inaccurate { .. })

@@ -215,17 +215,25 @@ fn an_inaccurate_unpivoted_band_is_refactored_with_pivoting() {
     }
 }
 
-/// The placement's check of K's unpivoted factor: kept where it solves, replaced by the
-/// pivoted one where its growth spoiled it.
+/// A whole matrix's unpivoted factor, kept where it solves and replaced by the pivoted one
+/// where its growth spoiled it: by the placement's check of K, and by a checked solve.
 #[test]
 fn a_useless_unpivoted_factor_fails_its_check() {
+    const TOL: f64 = 1e-10;
     for (eps, refactored) in [(0.5, false), (1e-14, true)] {
         let (a, blocks) = pivot_chain(40, 13..27, eps);
         let mut s = DirectSolver::analyze_blocked(&a, SolverKind::Lblt, &blocks).unwrap();
         s.set_pivoting(Pivoting::WhenNeeded);
         s.factor(&a).unwrap();
         assert!(s.is_unpivoted(), "eps {eps}: no zero pivot");
-        assert_eq!(s.check_unpivoted(&a, 1e-10).unwrap(), refactored, "eps {eps}");
+        assert_eq!(s.check_unpivoted(&a, TOL).unwrap(), refactored, "eps {eps}");
         assert_eq!(s.is_unpivoted(), !refactored, "eps {eps}");
+        // the next factorization tries without pivots again; the checked solve refactors
+        s.factor(&a).unwrap();
+        let b: Vec<f64> = (0..a.n()).map(|i| (0.3 * i as f64).cos()).collect();
+        let mut x = vec![0.0; a.n()];
+        assert!(s.solve_checked(&a, &b, &mut x, TOL).unwrap() <= TOL);
+        assert_eq!(s.pivoted_refactors(), usize::from(refactored), "eps {eps}");
+        assert_eq!(s.last_polish_iterations(), 0, "eps {eps}");
     }
 }
