@@ -9,7 +9,7 @@
 //!   reference point of an element, as the polymer stress of the flow solve needs them.
 
 use crate::fem::element::{physical_gradients, q1, q2, q2_map, MapAt, RuleMaps, RULE_POINTS};
-use crate::fem::linsolve::{DirectSolver, SolverKind};
+use crate::fem::linsolve::{DirectSolver, Pivoting, SolverKind};
 use crate::fem::quadrature::gauss_quad;
 use crate::fem::sparse::{q1_pattern, SparseMatrix};
 use crate::mesh::Mesh;
@@ -268,8 +268,10 @@ impl Q1Projection {
             source,
         };
         if self.solver.is_none() {
-            self.solver =
-                Some(DirectSolver::analyze(&self.matrix, SolverKind::Lblt).map_err(wrap)?);
+            let mut solver = DirectSolver::analyze(&self.matrix, SolverKind::Lblt).map_err(wrap)?;
+            // a mass matrix (plus a ghost penalty): positive definite, so its LDLᵀ needs no pivots
+            solver.set_pivoting(Pivoting::WhenNeeded);
+            self.solver = Some(solver);
         }
         let solver = self.solver.as_mut().expect("analysed above");
         solver.factor(&self.matrix).map_err(wrap)?;

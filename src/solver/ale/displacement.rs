@@ -7,7 +7,7 @@
 use super::locate::nearest_image;
 use super::{AleError, AleExtent, RigidMove, TemporaryAle};
 use crate::fem::element::{q1, Q1_IN_Q2};
-use crate::fem::linsolve::{DirectSolver, SolverKind};
+use crate::fem::linsolve::{DirectSolver, Pivoting, SolverKind};
 use crate::fem::sparse::{q1_pattern, SparseMatrix};
 use crate::mesh::{bounding_box, dilate, Mesh};
 
@@ -121,7 +121,10 @@ impl LaplaceSystem {
             }
             self.matrix.apply_constraints(&mut scratch, &fx);
             if self.solver.is_none() {
-                self.solver = Some(DirectSolver::analyze(&self.matrix, SolverKind::Lblt)?);
+                let mut solver = DirectSolver::analyze(&self.matrix, SolverKind::Lblt)?;
+                // a Laplacian: positive definite, so its LDLᵀ needs no pivots
+                solver.set_pivoting(Pivoting::WhenNeeded);
+                self.solver = Some(solver);
             }
             self.factored_mask = Vec::new();
             self.solver
