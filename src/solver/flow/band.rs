@@ -32,9 +32,11 @@ pub const BAND_FRACTION_LIMIT: f64 = 0.5;
 /// Largest interface |Γ| for which the band pays, in units of √(number of dofs). M's dense Γ
 /// block costs ∝ |Γ|³ per step, the whole matrix's factorization (nested dissection, 2D)
 /// ∝ n^1.5, so they meet at |Γ| ∝ √n. Measured on 200×50 (`xpflow bench moving --particles
-/// 3,5,8 --factorization both`, n = 91 000, √n = 302): |Γ| = 1140 (three particles) step 1.4×
-/// faster than the whole matrix, 1900 (five) 1.09×, 2856 (eight) 0.78× — the break-even near
-/// |Γ| ≈ 2000 = 6.6 √n. At 440×110 three particles have |Γ| = 1920 = 2.9 √n (1.75× faster).
+/// 3,5,8 --factorization both`, n = 91 000, √n = 302), both factored without pivots
+/// (2026-12-07): |Γ| ≈ 1050 (three particles) step 1.70× faster than the whole matrix, 1900
+/// (five) 1.35×, 2856 (eight, the limit raised for the measurement) 1.03–1.07× at 2.7× the
+/// memory — the break-even near |Γ| ≈ 2900 = 9.6 √n; the limit keeps a margin for the memory.
+/// At 440×110 three particles have |Γ| = 1920 = 2.9 √n (2.19× faster).
 pub const INTERFACE_LIMIT: f64 = 6.5;
 
 /// Seconds of one factor-and-solve, by phase.
