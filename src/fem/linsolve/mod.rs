@@ -258,22 +258,6 @@ impl DirectSolver {
         })
     }
 
-    /// Sets how an LBLᵀ solver pivots from its next factorization on ([`Pivoting`]).
-    pub fn set_pivoting(&mut self, pivoting: Pivoting) {
-        self.pivoting = pivoting;
-    }
-
-    /// Factorizations without pivots that [`solve_checked`](Self::solve_checked) replaced by the
-    /// pivoted one (their solve missed the tolerance).
-    pub fn pivoted_refactors(&self) -> usize {
-        self.pivoted_refactors
-    }
-
-    /// Whether the last factorization was made without pivots ([`Pivoting::WhenNeeded`]).
-    pub fn is_unpivoted(&self) -> bool {
-        self.factored && self.unpivoted
-    }
-
     /// LBLᵀ: the dof at each position of the elimination order of the last factorization
     /// (empty before one).
     pub fn positions(&self) -> &[usize] {
@@ -292,12 +276,6 @@ impl DirectSolver {
     /// symbolic analysis and the factor storage.
     pub fn factor(&mut self, a: &SparseMatrix) -> Result<(), SolveError> {
         self.factor_scaled(a, true, self.pivoting)
-    }
-
-    /// [`factor`](Self::factor) with Bunch–Kaufman pivoting whatever the solver's
-    /// [`Pivoting`]: for a matrix whose unpivoted factor solved it inaccurately.
-    pub fn factor_pivoted(&mut self, a: &SparseMatrix) -> Result<(), SolveError> {
-        self.factor_scaled(a, true, Pivoting::Always)
     }
 
     /// Like [`factor`](Self::factor) for a matrix equilibrated already (the symmetric part of an
@@ -334,26 +312,9 @@ impl DirectSolver {
         // (the LU's symbolic analysis above is paid once: not part of the comparison)
         let start = Instant::now();
         self.unpivoted = false;
-        if pivoting == Pivoting::WhenNeeded {
-            if let Backend::Lblt {
-                symbolic,
-                l_values,
-                subdiag,
-                perm_fwd,
-                perm_inv,
-            } = &mut self.backend
-            {
-                // without pivots the factor of D A D is that of A scaled: no equilibration
-                let stack = MemStack::new(&mut self.buffer);
-                if unpivoted::factor_ldlt(symbolic, l_values, subdiag, perm_fwd, perm_inv, a, stack)
-                {
-                    self.scale.clear();
-                    self.scale.resize(self.n, 1.0);
-                    self.unpivoted = true;
-                    self.finish_factorization(start);
-                    return Ok(());
-                }
-            }
+        if pivoting == Pivoting::WhenNeeded && self.factor_unpivoted(a) {
+            self.finish_factorization(start);
+            return Ok(());
         }
         let a: &SparseMatrix = if equilibrate {
             // cut elements with tiny fluid parts spread the entries over many orders of
@@ -410,26 +371,8 @@ impl DirectSolver {
         Ok(())
     }
 
-    /// For a factor made without pivots: solves A x = A 1 and, when the relative residual misses
-    /// `tol` (the factor's growth spoiled it), refactors `a` with pivoting. Returns whether it
-    /// refactored. For a factor used many times, whose solves are not all checked.
-    pub fn check_unpivoted(&mut self, a: &SparseMatrix, tol: f64) -> Result<bool, SolveError> {
-        if !self.is_unpivoted() {
-            return Ok(false);
-        }
-        let mut b = vec![0.0; self.n];
-        a.matvec(&vec![1.0; self.n], &mut b);
-        let mut x = b.clone();
-        self.solve_in_place(&mut x)?;
-        if relative_residual(a, &x, &b) <= tol {
-            return Ok(false);
-        }
-        self.factor_pivoted(a)?;
-        Ok(true)
-    }
-
     /// Marks the solver factored at `start`'s cost; LBLᵀ: the positions of the new factor.
-    fn finish_factorization(&mut self, start: Instant) {
+    pub(super) fn finish_factorization(&mut self, start: Instant) {
         self.factored = true;
         self.factor_time = start.elapsed().as_secs_f64();
         if matches!(self.backend, Backend::Lblt { .. }) {

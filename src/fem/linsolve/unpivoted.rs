@@ -20,6 +20,7 @@ use dyn_stack::MemStack;
 use faer::sparse::linalg::cholesky::SymbolicCholesky;
 use faer::{Par, Side};
 
+use super::{relative_residual, Backend, DirectSolver, SolveError};
 use crate::fem::sparse::SparseMatrix;
 
 /// How a [`SolverKind::Lblt`](super::SolverKind::Lblt) solver pivots.
@@ -38,7 +39,7 @@ pub enum Pivoting {
 /// LBLᵀ storage: L with D on its diagonal,
 /// `subdiag` zero, the intranode permutation the identity. Returns whether it succeeded (every
 /// value finite); on failure the storage holds garbage and must be refactored.
-pub(super) fn factor_ldlt(
+fn factor_ldlt(
     symbolic: &SymbolicCholesky<usize>,
     l_values: &mut [f64],
     subdiag: &mut [f64],
@@ -65,4 +66,69 @@ pub(super) fn factor_ldlt(
         *v = i;
     }
     true
+}
+
+impl DirectSolver {
+    /// Sets how an LBLᵀ solver pivots from its next factorization on ([`Pivoting`]).
+    pub fn set_pivoting(&mut self, pivoting: Pivoting) {
+        self.pivoting = pivoting;
+    }
+
+    /// Factorizations without pivots that [`solve_checked`](Self::solve_checked) replaced by the
+    /// pivoted one (their solve missed the tolerance).
+    pub fn pivoted_refactors(&self) -> usize {
+        self.pivoted_refactors
+    }
+
+    /// Whether the last factorization was made without pivots ([`Pivoting::WhenNeeded`]).
+    pub fn is_unpivoted(&self) -> bool {
+        self.factored && self.unpivoted
+    }
+
+    /// LBLᵀ: factors `a` without pivots, unscaled (without pivots the factor of D A D is that of
+    /// A scaled: no equilibration); returns whether it succeeded. Not yet marked factored.
+    pub(super) fn factor_unpivoted(&mut self, a: &SparseMatrix) -> bool {
+        let Backend::Lblt {
+            symbolic,
+            l_values,
+            subdiag,
+            perm_fwd,
+            perm_inv,
+        } = &mut self.backend
+        else {
+            return false;
+        };
+        let stack = MemStack::new(&mut self.buffer);
+        if !factor_ldlt(symbolic, l_values, subdiag, perm_fwd, perm_inv, a, stack) {
+            return false;
+        }
+        self.scale.clear();
+        self.scale.resize(self.n, 1.0);
+        self.unpivoted = true;
+        true
+    }
+
+    /// [`factor`](Self::factor) with Bunch–Kaufman pivoting whatever the solver's
+    /// [`Pivoting`]: for a matrix whose unpivoted factor solved it inaccurately.
+    pub fn factor_pivoted(&mut self, a: &SparseMatrix) -> Result<(), SolveError> {
+        self.factor_scaled(a, true, Pivoting::Always)
+    }
+
+    /// For a factor made without pivots: solves A x = A 1 and, when the relative residual misses
+    /// `tol` (the factor's growth spoiled it), refactors `a` with pivoting. Returns whether it
+    /// refactored. For a factor used many times, whose solves are not all checked.
+    pub fn check_unpivoted(&mut self, a: &SparseMatrix, tol: f64) -> Result<bool, SolveError> {
+        if !self.is_unpivoted() {
+            return Ok(false);
+        }
+        let mut b = vec![0.0; self.n];
+        a.matvec(&vec![1.0; self.n], &mut b);
+        let mut x = b.clone();
+        self.solve_in_place(&mut x)?;
+        if relative_residual(a, &x, &b) <= tol {
+            return Ok(false);
+        }
+        self.factor_pivoted(a)?;
+        Ok(true)
+    }
 }
