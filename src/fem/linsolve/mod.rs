@@ -431,10 +431,7 @@ impl DirectSolver {
     ) -> Result<f64, SolveError> {
         let start = Instant::now();
         if self.is_unpivoted() {
-            x.copy_from_slice(b);
-            self.solve_in_place(x)?;
-            let res = relative_residual(a, x, b);
-            if res <= tol {
+            if let Some(res) = direct_solve(a, b, x, tol, &mut |v| self.solve_in_place(v))? {
                 self.last_polish = 0;
                 return Ok(res);
             }
@@ -510,11 +507,7 @@ pub fn checked_solve(
     tol: f64,
     solve: &mut dyn FnMut(&mut [f64]) -> Result<(), SolveError>,
 ) -> Result<(f64, usize), SolveError> {
-    x.copy_from_slice(b);
-    solve(x)?;
-    let mut r = vec![0.0; b.len()];
-    let res = residual(a, x, b, &mut r);
-    if res.is_finite() && res <= tol {
+    if let Some(res) = direct_solve(a, b, x, tol, solve)? {
         return Ok((res, 0));
     }
     if !x.iter().all(|v| v.is_finite()) {
@@ -530,7 +523,7 @@ pub fn checked_solve(
         MAX_POLISH_ITERATIONS,
         MAX_POLISH_ITERATIONS,
     )?;
-    let res = residual(a, x, b, &mut r);
+    let res = relative_residual(a, x, b);
     if res.is_finite() && res <= 10.0 * tol {
         Ok((res, out.iterations))
     } else {
@@ -542,21 +535,29 @@ pub fn checked_solve(
 /// factorization as preconditioner needs a handful.
 pub const MAX_POLISH_ITERATIONS: usize = 30;
 
-/// ‖b − A x‖/‖b‖ (or ‖b − A x‖ if b = 0); NaN or infinite for a non-finite x.
-pub fn relative_residual(a: &SparseMatrix, x: &[f64], b: &[f64]) -> f64 {
-    let mut r = vec![0.0; b.len()];
-    residual(a, x, b, &mut r)
+/// Solves A x = b with `solve` alone (which replaces its argument b by x); the relative
+/// residual if it meets `tol`, `None` if it does not (or is not finite).
+pub fn direct_solve(
+    a: &SparseMatrix,
+    b: &[f64],
+    x: &mut [f64],
+    tol: f64,
+    solve: &mut dyn FnMut(&mut [f64]) -> Result<(), SolveError>,
+) -> Result<Option<f64>, SolveError> {
+    x.copy_from_slice(b);
+    solve(x)?;
+    let res = relative_residual(a, x, b);
+    Ok((res <= tol).then_some(res))
 }
 
-/// r = b − A x; returns ‖r‖/‖b‖ (or ‖r‖ if b = 0).
-fn residual(a: &SparseMatrix, x: &[f64], b: &[f64], r: &mut [f64]) -> f64 {
-    a.matvec(x, r);
-    let mut rr = 0.0;
-    let mut bb = 0.0;
-    for i in 0..b.len() {
-        r[i] = b[i] - r[i];
-        rr += r[i] * r[i];
-        bb += b[i] * b[i];
+/// ‖b − A x‖/‖b‖ (or ‖b − A x‖ if b = 0); NaN or infinite for a non-finite x.
+pub fn relative_residual(a: &SparseMatrix, x: &[f64], b: &[f64]) -> f64 {
+    let mut ax = vec![0.0; b.len()];
+    a.matvec(x, &mut ax);
+    let (mut rr, mut bb) = (0.0, 0.0);
+    for (bi, axi) in b.iter().zip(&ax) {
+        rr += (bi - axi) * (bi - axi);
+        bb += bi * bi;
     }
     if bb > 0.0 {
         (rr / bb).sqrt()

@@ -45,7 +45,7 @@ use faer::linalg::matmul::matmul;
 use faer::{Accum, ColMut, ColRef, Mat, Par};
 
 use super::linsolve::{
-    checked_solve, relative_residual, DirectSolver, DofBlocks, Pivoting, SolveError, SolverKind,
+    checked_solve, direct_solve, DirectSolver, DofBlocks, Pivoting, SolveError, SolverKind,
 };
 use super::sparse::SparseMatrix;
 
@@ -382,10 +382,7 @@ impl Substructured {
         tol: f64,
     ) -> Result<f64, SolveError> {
         if self.m_solver.is_unpivoted() {
-            x.copy_from_slice(b);
-            self.solve_in_place(x)?;
-            let res = relative_residual(a, x, b);
-            if res <= tol {
+            if let Some(res) = direct_solve(a, b, x, tol, &mut |v| self.solve_in_place(v))? {
                 self.last_polish = 0;
                 return Ok(res);
             }
