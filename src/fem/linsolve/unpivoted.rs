@@ -9,9 +9,11 @@
 //! particles). An LDLᵀ exists for the flow's saddle-point matrices in the node-block order (each
 //! pressure after the velocities of its node, so that its pivot is −B A⁻¹ Bᵀ of what was
 //! eliminated), but nothing bounds its growth: a cut element with a sliver of fluid can make a
-//! pivot tiny. Hence the three guards — a zero or non-finite pivot falls back to LBLᵀ at once,
-//! and the caller checks the residual of every solve and refactors with pivoting when it misses
-//! ([`DirectSolver::factor_pivoted`]) before any iterative polishing.
+//! pivot tiny. Hence three guards: a zero or non-finite pivot falls back to LBLᵀ at once; a
+//! checked solve whose residual misses its tolerance refactors with pivoting before any
+//! iterative polishing ([`DirectSolver::solve_checked`], and the band solver's for M); and a
+//! factor used for many solves is checked once by a test solve
+//! ([`DirectSolver::check_unpivoted`], the band solver's K at each placement).
 //!
 //! The factor shares the LBLᵀ's storage and solve: the same supernodal layout of L with D on its
 //! diagonal, no 2×2 pivots (zero subdiagonal) and the identity as intranode permutation.
@@ -29,15 +31,14 @@ pub enum Pivoting {
     /// Bunch–Kaufman pivots inside each supernode (faer's intranode LBLᵀ), every factorization.
     #[default]
     Always,
-    /// LDLᵀ without pivots first; LBLᵀ when a pivot is zero or not finite, and when the caller
-    /// asks for it ([`DirectSolver::factor_pivoted`](super::DirectSolver::factor_pivoted)) after
-    /// a solve that missed its residual tolerance.
+    /// LDLᵀ without pivots first; LBLᵀ when a pivot is zero or not finite, when a checked solve
+    /// misses its residual tolerance ([`DirectSolver::solve_checked`]) and when a caller asks
+    /// for it ([`DirectSolver::factor_pivoted`], [`DirectSolver::check_unpivoted`]).
     WhenNeeded,
 }
 
 /// Factors `a` as it is (a symmetric scaling changes nothing without pivots) by LDLᵀ into the
-/// LBLᵀ storage: L with D on its diagonal,
-/// `subdiag` zero, the intranode permutation the identity. Returns whether it succeeded (every
+/// LBLᵀ storage: L with D on its diagonal, `subdiag` zero, the intranode permutation the identity. Returns whether it succeeded (every
 /// value finite); on failure the storage holds garbage and must be refactored.
 fn factor_ldlt(
     symbolic: &SymbolicCholesky<usize>,
