@@ -40,7 +40,7 @@ pub use order::DofBlocks;
 use probe::Probe;
 pub use probe::{ProbeVerdict, PROBE_MAX_UNKNOWNS};
 use symmetric_part::SymmetricPart;
-pub use unpivoted::Pivoting;
+pub use unpivoted::{checked_solve_repivoting, Pivoting, Repivot};
 
 /// Which factorization to use.
 #[derive(Debug, Clone, Copy, PartialEq, Eq)]
@@ -430,15 +430,7 @@ impl DirectSolver {
         tol: f64,
     ) -> Result<f64, SolveError> {
         let start = Instant::now();
-        if self.is_unpivoted() {
-            if let Some(res) = direct_solve(a, b, x, tol, &mut |v| self.solve_in_place(v))? {
-                self.last_polish = 0;
-                return Ok(res);
-            }
-            self.factor_pivoted(a)?;
-            self.pivoted_refactors += 1;
-        }
-        let solved = checked_solve(a, b, x, tol, &mut |v| self.solve_in_place(v));
+        let solved = checked_solve_repivoting(self, a, b, x, tol);
         let (res, polish) = match solved {
             Err(SolveError::Inaccurate { .. })
                 if matches!(self.backend, Backend::SymmetricPart(_)) =>
@@ -537,7 +529,7 @@ pub const MAX_POLISH_ITERATIONS: usize = 30;
 
 /// Solves A x = b with `solve` alone (which replaces its argument b by x); the relative
 /// residual if it meets `tol`, `None` if it does not (or is not finite).
-pub fn direct_solve(
+fn direct_solve(
     a: &SparseMatrix,
     b: &[f64],
     x: &mut [f64],

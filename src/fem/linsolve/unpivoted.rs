@@ -22,7 +22,7 @@ use dyn_stack::MemStack;
 use faer::sparse::linalg::cholesky::SymbolicCholesky;
 use faer::{Par, Side};
 
-use super::{relative_residual, Backend, DirectSolver, SolveError};
+use super::{checked_solve, direct_solve, relative_residual, Backend, DirectSolver, SolveError};
 use crate::fem::sparse::SparseMatrix;
 
 /// How a [`SolverKind::Lblt`](super::SolverKind::Lblt) solver pivots.
@@ -69,14 +69,60 @@ fn factor_ldlt(
     true
 }
 
+/// A factored system whose factors may have been made without pivots: what
+/// [`checked_solve_repivoting`] needs of it (a [`DirectSolver`], or the band solver whose M is).
+pub trait Repivot {
+    /// Solves in place with the current factors (`v` holds b on entry and x on exit).
+    fn solve_factored(&mut self, v: &mut [f64]) -> Result<(), SolveError>;
+    /// Whether a factor the solve uses was made without pivots and not yet checked by a solve.
+    fn unpivoted_in_use(&self) -> bool;
+    /// Refactors that factor with pivoting (`a` is the matrix the solves are of), and counts it.
+    fn repivot(&mut self, a: &SparseMatrix) -> Result<(), SolveError>;
+}
+
+/// [`checked_solve`] for a system whose factor may lack pivots: when the direct solve with an
+/// unpivoted factor misses `tol`, the factor is redone with pivoting ([`Repivot::repivot`])
+/// before anything else, then solved and polished as [`checked_solve`] does. Returns the
+/// residual and the GMRES iterations.
+pub fn checked_solve_repivoting(
+    system: &mut dyn Repivot,
+    a: &SparseMatrix,
+    b: &[f64],
+    x: &mut [f64],
+    tol: f64,
+) -> Result<(f64, usize), SolveError> {
+    if system.unpivoted_in_use() {
+        if let Some(res) = direct_solve(a, b, x, tol, &mut |v| system.solve_factored(v))? {
+            return Ok((res, 0));
+        }
+        system.repivot(a)?;
+    }
+    checked_solve(a, b, x, tol, &mut |v| system.solve_factored(v))
+}
+
+impl Repivot for DirectSolver {
+    fn solve_factored(&mut self, v: &mut [f64]) -> Result<(), SolveError> {
+        self.solve_in_place(v)
+    }
+
+    fn unpivoted_in_use(&self) -> bool {
+        self.is_unpivoted()
+    }
+
+    fn repivot(&mut self, a: &SparseMatrix) -> Result<(), SolveError> {
+        self.pivoted_refactors += 1;
+        self.factor_pivoted(a)
+    }
+}
+
 impl DirectSolver {
     /// Sets how an LBLᵀ solver pivots from its next factorization on ([`Pivoting`]).
     pub fn set_pivoting(&mut self, pivoting: Pivoting) {
         self.pivoting = pivoting;
     }
 
-    /// Factorizations without pivots that [`solve_checked`](Self::solve_checked) replaced by the
-    /// pivoted one (their solve missed the tolerance).
+    /// Factorizations without pivots replaced by the pivoted one: their solve missed the
+    /// tolerance ([`solve_checked`](Self::solve_checked), [`check_unpivoted`](Self::check_unpivoted)).
     pub fn pivoted_refactors(&self) -> usize {
         self.pivoted_refactors
     }
@@ -129,7 +175,7 @@ impl DirectSolver {
         if relative_residual(a, &x, &b) <= tol {
             return Ok(false);
         }
-        self.factor_pivoted(a)?;
+        self.repivot(a)?;
         Ok(true)
     }
 }

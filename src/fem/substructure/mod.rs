@@ -45,7 +45,7 @@ use faer::linalg::matmul::matmul;
 use faer::{Accum, ColMut, ColRef, Mat, Par};
 
 use super::linsolve::{
-    checked_solve, direct_solve, DirectSolver, DofBlocks, Pivoting, SolveError, SolverKind,
+    checked_solve_repivoting, DirectSolver, DofBlocks, Pivoting, Repivot, SolveError, SolverKind,
 };
 use super::sparse::SparseMatrix;
 
@@ -372,8 +372,10 @@ impl Substructured {
     }
 
     /// Solves A x = b and checks the relative residual against `tol`; when it misses with M
-    /// factored without pivots, M is refactored with pivoting and the solve repeated; when it
-    /// still misses, GMRES preconditioned with this solver polishes ([`checked_solve`]).
+    /// factored without pivots, M is redone with pivoting and the solve repeated (K was checked
+    /// at the placement);
+    /// when it still misses, GMRES preconditioned with this solver polishes
+    /// ([`checked_solve_repivoting`]).
     pub fn solve_checked(
         &mut self,
         a: &SparseMatrix,
@@ -381,17 +383,7 @@ impl Substructured {
         x: &mut [f64],
         tol: f64,
     ) -> Result<f64, SolveError> {
-        if self.m_solver.is_unpivoted() {
-            if let Some(res) = direct_solve(a, b, x, tol, &mut |v| self.solve_in_place(v))? {
-                self.last_polish = 0;
-                return Ok(res);
-            }
-            self.m_factored = false;
-            self.m_solver.factor_pivoted(&self.m)?;
-            self.m_factored = true;
-            self.pivoted_refactors += 1;
-        }
-        let (res, polish) = checked_solve(a, b, x, tol, &mut |v| self.solve_in_place(v))?;
+        let (res, polish) = checked_solve_repivoting(self, a, b, x, tol)?;
         self.last_polish = polish;
         Ok(res)
     }
@@ -401,10 +393,29 @@ impl Substructured {
         self.last_polish
     }
 
-    /// Factorizations of M redone with pivoting because the unpivoted one missed the residual
-    /// tolerance, since the placement.
+    /// Factorizations of M and K redone with pivoting because the unpivoted one missed the
+    /// residual tolerance, since the placement (K's check at the placement included).
     pub fn pivoted_refactors(&self) -> usize {
-        self.pivoted_refactors
+        self.pivoted_refactors + self.k_solver.pivoted_refactors()
+    }
+}
+
+impl Repivot for Substructured {
+    fn solve_factored(&mut self, v: &mut [f64]) -> Result<(), SolveError> {
+        self.solve_in_place(v)
+    }
+
+    fn unpivoted_in_use(&self) -> bool {
+        self.m_solver.is_unpivoted()
+    }
+
+    /// M with pivoting (K was checked at the placement).
+    fn repivot(&mut self, _a: &SparseMatrix) -> Result<(), SolveError> {
+        self.pivoted_refactors += 1;
+        self.m_factored = false;
+        self.m_solver.factor_pivoted(&self.m)?;
+        self.m_factored = true;
+        Ok(())
     }
 }
 

@@ -58,12 +58,18 @@ impl Stokes {
     pub(super) fn solve_by_band(&mut self) -> Result<Option<(f64, SolveTimes)>, SolveError> {
         debug_assert_eq!(self.params.factorization, FlowFactorization::Band);
         let t0 = Instant::now();
+        // a new placement's K check counts with the solve's (its solver starts from zero)
+        let mut pivoted_before = self
+            .band_solver
+            .as_ref()
+            .map_or(0, |s| s.pivoted_refactors());
         if self
             .band_solver
             .as_ref()
             .is_none_or(|s| !s.fits(&self.matrix))
         {
             self.band_solver = None;
+            pivoted_before = 0;
             let placement = (self.pattern_rebuilds, self.base_rebuilds);
             if self.band_declined == Some(placement) {
                 return Ok(None);
@@ -101,7 +107,6 @@ impl Stokes {
         }
         let t1 = Instant::now();
         let solver = self.band_solver.as_mut().expect("placed above");
-        let pivoted_before = solver.pivoted_refactors();
         // (M keeps the values it was factored with: the whole matrix's are not copied)
         let solved = solver.factor(&self.matrix).and_then(|refactored| {
             let t2 = Instant::now();

@@ -139,8 +139,9 @@ pub struct FlowSolverStats {
     /// Placements of the band solver ([`FlowFactorization::Band`]: far-field factorizations,
     /// each about a whole factorization and a condensation onto the band's interface).
     pub placements: usize,
-    /// Band factorizations without pivots whose solve missed the residual tolerance, redone
-    /// with pivoting (`fem::substructure`; left out of the serialized form when none).
+    /// Factorizations without pivots (the whole matrix's, the band's M and K) whose solve missed
+    /// the residual tolerance, redone with pivoting (`fem::linsolve::unpivoted`; left out of the
+    /// serialized form when none).
     #[serde(skip_serializing_if = "is_zero")]
     pub pivoted_refactors: usize,
     /// Solves with at least one film corrected by [`StokesParams::lubrication`] (left out of
