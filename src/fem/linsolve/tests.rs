@@ -244,3 +244,54 @@ fn an_unpivoted_factor_is_used_where_it_exists() {
         assert!(!s.is_unpivoted());
     }
 }
+
+/// An identity elimination order is given to faer as such (no permutation, the matrix factored
+/// as stored), for a matrix stored whole or by its lower triangle alone (as the band matrix M
+/// stores its dense interface block): both solve as the permuted factorization does.
+#[test]
+fn an_identity_order_factors_the_matrix_as_stored() {
+    // residual tolerance: round-off on an 8×8 well-conditioned system
+    const TOL: f64 = 1e-13;
+    let a = saddle(1.0);
+    // the order that eliminates each pressure after its velocities, made the numbering
+    let order = [0, 1, 2, 6, 3, 4, 5, 7];
+    let permuted = |lower_only: bool| {
+        let (mut col_ptr, mut row_idx, mut values) = (vec![0], Vec::new(), Vec::new());
+        for &j in &order {
+            for (new_i, &i) in order.iter().enumerate() {
+                let first = if lower_only { col_ptr.len() - 1 } else { 0 };
+                if new_i >= first && a.column(j).0.contains(&i) {
+                    row_idx.push(new_i);
+                    values.push(a.values[a.position(i, j)]);
+                }
+            }
+            col_ptr.push(row_idx.len());
+        }
+        let mut p = SparseMatrix::from_pattern(8, col_ptr, row_idx);
+        p.values = values;
+        p
+    };
+    let b: Vec<f64> = (0..8).map(|i| (0.7 * i as f64).cos()).collect();
+    let mut want = b.clone();
+    let mut s = DirectSolver::analyze_with_order(&a, SolverKind::Lblt, &order).unwrap();
+    s.factor(&a).unwrap();
+    s.solve_in_place(&mut want).unwrap();
+    let identity: Vec<usize> = (0..8).collect();
+    for lower_only in [false, true] {
+        let p = permuted(lower_only);
+        for pivoting in [Pivoting::WhenNeeded, Pivoting::Always] {
+            let mut s = DirectSolver::analyze_with_order(&p, SolverKind::Lblt, &identity).unwrap();
+            s.set_pivoting(pivoting);
+            s.factor(&p).unwrap();
+            assert_eq!(s.is_unpivoted(), pivoting == Pivoting::WhenNeeded);
+            let mut x: Vec<f64> = order.iter().map(|&d| b[d]).collect();
+            s.solve_in_place(&mut x).unwrap();
+            for (k, &d) in order.iter().enumerate() {
+                assert!(
+                    (x[k] - want[d]).abs() < TOL,
+                    "{lower_only} {pivoting:?}: {k}"
+                );
+            }
+        }
+    }
+}

@@ -177,22 +177,30 @@ impl DirectSolver {
     /// are: exact for the trailing positions only unless `from` = 0).
     ///
     /// Per supernode: the rows below it gathered once into a contiguous buffer g, the products
-    /// L₂₁ᵀ g as dot products of contiguous columns, then the unit upper triangle.
+    /// L₂₁ᵀ g as dot products of contiguous columns, then the unit upper triangle. The products
+    /// are taken column by column upwards in memory, before the triangle: the supernodes are
+    /// visited backwards, and the same dot products taken in the triangle's order (columns
+    /// downwards in memory) ran at half the speed of the forward substitution over the same factor.
     pub fn backward(&self, v: &mut [f64], from: usize) -> Result<(), SolveError> {
         let parts = self.parts()?;
-        let mut g = Vec::new();
+        let (mut g, mut below) = (Vec::new(), Vec::new());
         for s in (from..parts.n_supernodes).rev() {
             let node = parts.factor.supernode(s);
             let (start, vals, pattern) = (node.start(), node.val(), node.pattern());
             let size = vals.ncols();
+            let column = |c: usize| {
+                vals.col(c)
+                    .try_as_col_major()
+                    .expect("contiguous")
+                    .as_slice()
+            };
             g.clear();
             g.extend(pattern.iter().map(|&i| v[parts.pivot_inv[i]]));
+            below.clear();
+            below.extend((0..size).map(|c| dot(&column(c)[size..], &g)));
             for c in (0..size).rev() {
-                let col = vals.col(c).try_as_col_major().expect("contiguous");
-                let col = col.as_slice();
-                let below = dot(&col[size..], &g);
-                let inside = dot(&col[c + 1..size], &v[start + c + 1..start + size]);
-                v[start + c] -= below + inside;
+                let inside = dot(&column(c)[c + 1..size], &v[start + c + 1..start + size]);
+                v[start + c] -= below[c] + inside;
             }
         }
         Ok(())

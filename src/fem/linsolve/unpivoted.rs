@@ -19,7 +19,7 @@
 //! diagonal, no 2×2 pivots (zero subdiagonal) and the identity as intranode permutation.
 
 use dyn_stack::MemStack;
-use faer::sparse::linalg::cholesky::SymbolicCholesky;
+use faer::sparse::linalg::cholesky::{SymbolicCholesky, SymbolicCholeskyRaw};
 use faer::{Par, Side};
 
 use super::{checked_solve, direct_solve, relative_residual, Backend, DirectSolver, SolveError};
@@ -58,7 +58,7 @@ fn factor_ldlt(
         stack,
         Default::default(),
     );
-    if factored.is_err() || l_values.iter().any(|v| !v.is_finite()) {
+    if factored.is_err() || !pivots_usable(symbolic, l_values) {
         return false;
     }
     subdiag.iter_mut().for_each(|s| *s = 0.0);
@@ -67,6 +67,24 @@ fn factor_ldlt(
         *v = i;
     }
     true
+}
+
+/// Whether every pivot of the factor in `l_values` is finite and not zero. The pivots suffice:
+/// d_i = a_ii − Σ_j l_ij² d_j takes every entry of row i of L, so a non-finite entry anywhere in
+/// L makes the pivot of its row non-finite (and a zero pivot makes the entries below it so).
+fn pivots_usable(symbolic: &SymbolicCholesky<usize>, l_values: &[f64]) -> bool {
+    let SymbolicCholeskyRaw::Supernodal(sn) = symbolic.raw() else {
+        return l_values.iter().all(|v| v.is_finite());
+    };
+    (0..sn.n_supernodes()).all(|s| {
+        let size = sn.supernode_end()[s] - sn.supernode_begin()[s];
+        let rows = size + sn.col_ptr_for_row_idx()[s + 1] - sn.col_ptr_for_row_idx()[s];
+        let first = sn.col_ptr_for_val()[s];
+        (0..size).all(|c| {
+            let d = l_values[first + c * rows + c];
+            d.is_finite() && d != 0.0
+        })
+    })
 }
 
 /// A factored system whose factors may have been made without pivots: what
