@@ -6,9 +6,9 @@
 # stopped sweep has into `data/` and unpacks it again:
 #
 #   scripts/carry-over.sh save    NAME   # results/thesis/NAME.db → data/thesis/NAME.db (finished cases,
-#                                        # thin export) + data/thesis/inflight/NAME.tar.xz (the whole
+#                                        # thin export) + data/carry-over/NAME.tar.xz (the whole
 #                                        # database and the saved states of the cases in flight)
-#   scripts/carry-over.sh restore NAME   # data/thesis/inflight/NAME.tar.xz → results/thesis/
+#   scripts/carry-over.sh restore NAME   # data/carry-over/NAME.tar.xz → results/thesis/
 #
 # then rerun the study's sweep files into results/thesis/NAME.db: finished cases are skipped, the
 # cases in flight resume from their saved states (a resumed case without its HDF5 file starts a new
@@ -28,7 +28,7 @@ results=results/thesis
 data=data/thesis
 db=$results/$name.db
 states=$results/$name
-pack=$data/inflight/$name.tar.xz
+pack=data/carry-over/$name.tar.xz
 bin=${XPFLOW:-${CARGO_TARGET_DIR:-target}/release/xpflow}
 
 case $action in
@@ -48,7 +48,7 @@ save)
 		mv "$tmp/$name.db" "$data/$name.db"
 	fi
 	# the whole database (one consistent copy) and the saved states of the unfinished cases
-	mkdir -p "$tmp/pack/$name" "$data/inflight"
+	mkdir -p "$tmp/pack/$name" data/carry-over
 	python3 -c 'import sqlite3, sys; sqlite3.connect("file:" + sys.argv[1] + "?mode=ro", uri=True).execute("VACUUM INTO ?", (sys.argv[2],))' \
 		"$db" "$tmp/pack/$name.db"
 	# in the copy, the killed sweep's cases are interrupted (pending, no owner), as a sweep resets
