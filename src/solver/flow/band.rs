@@ -32,12 +32,14 @@ pub const BAND_FRACTION_LIMIT: f64 = 0.5;
 /// Largest interface |Γ| for which the band pays, in units of √(number of dofs). M's dense Γ
 /// block costs ∝ |Γ|³ per step, the whole matrix's factorization (nested dissection, 2D)
 /// ∝ n^1.5, so they meet at |Γ| ∝ √n. Measured on 200×50 (`xpflow bench moving --particles
-/// 3,5,8 --factorization both`, n = 91 000, √n = 302), both factored without pivots
-/// (2026-12-07): |Γ| ≈ 1050 (three particles) step 1.70× faster than the whole matrix, 1900
-/// (five) 1.35×, 2856 (eight, the limit raised for the measurement) 1.03–1.07× at 2.7× the
-/// memory — the break-even near |Γ| ≈ 2900 = 9.6 √n; the limit keeps a margin for the memory.
-/// At 440×110 three particles have |Γ| = 1920 = 2.9 √n (2.19× faster).
-pub const INTERFACE_LIMIT: f64 = 6.5;
+/// 3,5,6,7,8`, n = 91 000, √n = 302), both factored without pivots, the flow's factorization and
+/// solve of the band against the whole matrix's (2026-12-07, session 26): |Γ| ≈ 1050 = 3.5 √n
+/// (three particles) 0.068 against 0.196 s, 2040 = 6.8 √n (six) 0.197 against 0.316 s at 661
+/// against 300 MB, 2400 = 8.0 √n (seven) 0.245 against 0.272 s; eight (2600 = 8.6 √n, and
+/// 2856 = 9.5 √n in session 25's layout) break even. The limit takes six particles and leaves
+/// the marginal gain of seven for the memory. At 440×110 three particles have |Γ| = 1920 =
+/// 2.9 √n.
+pub const INTERFACE_LIMIT: f64 = 7.5;
 
 /// Seconds of one factor-and-solve, by phase.
 pub(super) struct SolveTimes {

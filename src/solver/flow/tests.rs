@@ -322,7 +322,7 @@ fn row_of_particles(mesh: &Mesh, dx: f64) -> (Vec<Particle>, Vec<ElementCut>) {
 
 #[test]
 fn a_band_whose_interface_is_too_large_gives_way_to_the_whole_matrix() {
-    // 96×24, n ≈ 21 200 dofs: the limit is 6.5 √n ≈ 950 interface dofs; one particle's band
+    // 96×24, n ≈ 21 200 dofs: the limit is 7.5 √n ≈ 1090 interface dofs; one particle's band
     // boundary has 280, six have 1590
     let mesh = Mesh::rectangle(
         Axis::uniform(-2.0, 2.0, 96),
