@@ -34,7 +34,7 @@ pub const BAND_FRACTION_LIMIT: f64 = 0.5;
 /// ∝ n^1.5, so they meet at |Γ| ∝ √n. Measured on 200×50 (`xpflow bench moving --particles
 /// 3,5,6,7,8`, n = 91 000, √n = 302), both factored without pivots, the flow's factorization and
 /// solve of the band against the whole matrix's (2026-12-07, session 26): |Γ| ≈ 1050 = 3.5 √n
-/// (three particles) 0.068 against 0.196 s, 2040 = 6.8 √n (six) 0.197 against 0.316 s at 661
+/// (three particles) 0.074 against 0.194 s, 2040 = 6.8 √n (six) 0.197 against 0.316 s at 661
 /// against 300 MB, 2400 = 8.0 √n (seven) 0.245 against 0.272 s; eight (2600 = 8.6 √n, and
 /// 2856 = 9.5 √n in session 25's layout) break even. The limit takes six particles and leaves
 /// the marginal gain of seven for the memory. At 440×110 three particles have |Γ| = 1920 =
