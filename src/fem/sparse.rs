@@ -110,6 +110,32 @@ impl SparseMatrix {
         (&self.row_idx[range.clone()], range)
     }
 
+    /// The pattern (column pointers, row indices) of the transpose of the lower triangle: column
+    /// j holds the rows i ≤ j for which a_ji is stored — the upper triangle as a symbolic
+    /// analysis reads it, for a matrix that may store its lower triangle alone.
+    pub fn upper_from_lower(&self) -> (Vec<usize>, Vec<usize>) {
+        let n = self.n;
+        let mut col_ptr = vec![0usize; n + 1];
+        for j in 0..n {
+            for &i in self.column(j).0.iter().filter(|&&i| i >= j) {
+                col_ptr[i + 1] += 1;
+            }
+        }
+        for j in 0..n {
+            col_ptr[j + 1] += col_ptr[j];
+        }
+        let mut next = col_ptr.clone();
+        let mut row_idx = vec![0usize; col_ptr[n]];
+        // (columns ascending: each column's rows come out sorted)
+        for j in 0..n {
+            for &i in self.column(j).0.iter().filter(|&&i| i >= j) {
+                row_idx[next[i]] = j;
+                next[i] += 1;
+            }
+        }
+        (col_ptr, row_idx)
+    }
+
     /// Dimension.
     pub fn n(&self) -> usize {
         self.n
@@ -444,5 +470,33 @@ mod tests {
         b.apply_constraints(&mut rb, &fixed);
         assert_eq!(a.values, b.values);
         assert_eq!(ra, rb);
+    }
+
+    /// For a symmetric pattern the transpose of the lower triangle is the upper triangle as
+    /// stored; for the lower triangle alone it is the same.
+    #[test]
+    fn the_upper_pattern_is_the_transposed_lower_one() {
+        let mut pb = PatternBuilder::new(6);
+        pb.add_group(&[0, 2, 5]);
+        pb.add_group(&[1, 2, 3]);
+        pb.add_coupling(&[4], &[0, 5]);
+        let full = pb.build();
+        let upper = |m: &SparseMatrix| {
+            let mut col_ptr = vec![0];
+            let mut row_idx = Vec::new();
+            for j in 0..m.n() {
+                row_idx.extend(m.column(j).0.iter().filter(|&&i| i <= j));
+                col_ptr.push(row_idx.len());
+            }
+            (col_ptr, row_idx)
+        };
+        assert_eq!(full.upper_from_lower(), upper(&full));
+        let (mut col_ptr, mut row_idx) = (vec![0], Vec::new());
+        for j in 0..full.n() {
+            row_idx.extend(full.column(j).0.iter().filter(|&&i| i >= j));
+            col_ptr.push(row_idx.len());
+        }
+        let lower = SparseMatrix::from_pattern(full.n(), col_ptr, row_idx);
+        assert_eq!(lower.upper_from_lower(), upper(&full));
     }
 }

@@ -96,31 +96,6 @@ enum Backend {
     SymmetricPart(Box<SymmetricPart>),
 }
 
-/// The pattern (column pointers, row indices) of the transpose of `a`'s lower triangle: column
-/// j holds the rows i ≤ j for which a_ji is stored.
-fn upper_from_lower(a: &SparseMatrix) -> (Vec<usize>, Vec<usize>) {
-    let n = a.n();
-    let mut col_ptr = vec![0usize; n + 1];
-    for j in 0..n {
-        for &i in a.column(j).0.iter().filter(|&&i| i >= j) {
-            col_ptr[i + 1] += 1;
-        }
-    }
-    for j in 0..n {
-        col_ptr[j + 1] += col_ptr[j];
-    }
-    let mut next = col_ptr.clone();
-    let mut row_idx = vec![0usize; col_ptr[n]];
-    // (columns ascending: each column's rows come out sorted)
-    for j in 0..n {
-        for &i in a.column(j).0.iter().filter(|&&i| i >= j) {
-            row_idx[next[i]] = j;
-            next[i] += 1;
-        }
-    }
-    (col_ptr, row_idx)
-}
-
 /// faer's default supernode relaxation: two adjacent supernodes of n columns in all are merged
 /// when the fraction z of explicit zeros this adds stays below the bound for n.
 const DEFAULT_RELAX: [(usize, f64); 4] = [(4, 1.0), (16, 0.8), (48, 0.1), (usize::MAX, 0.05)];
@@ -244,7 +219,7 @@ impl DirectSolver {
                 let upper;
                 let (pattern, side) = match &ordering {
                     SymmetricOrdering::Identity => {
-                        upper = upper_from_lower(a);
+                        upper = a.upper_from_lower();
                         (
                             SymbolicSparseColMatRef::new_checked(n, n, &upper.0, None, &upper.1),
                             Side::Upper,
