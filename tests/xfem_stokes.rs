@@ -1,6 +1,7 @@
 //! XFEM Stokes checks on coarse meshes (fast); the full studies run with `make validate`
 //! (`xpflow validate xfem-stokes`, `xpflow validate cylinder --wi 0`, `xpflow validate free-particle`).
 
+use xpflow::geometry::CylinderChannel;
 use xpflow::solver::multiplier::RigidCondition;
 use xpflow::solver::rigid::WeakForm;
 use xpflow::validate::xstokes::{
@@ -28,7 +29,14 @@ fn confined_cylinder_drag_matches_the_benchmark() {
     const K_REF: f64 = 132.358;
     const REL_TOL: f64 = 5e-4;
     for condition in [RigidCondition::Weak, RigidCondition::Multiplier] {
-        let r = cylinder_drag(0.1, condition, WeakForm::Symmetric, CutOptions::default()).unwrap();
+        let r = cylinder_drag(
+            &CylinderChannel::BENCHMARK,
+            0.1,
+            condition,
+            WeakForm::Symmetric,
+            CutOptions::default(),
+        )
+        .unwrap();
         println!("{condition:?}: {r:?}");
         assert!(
             (r.k_reaction - K_REF).abs() / K_REF < REL_TOL,

@@ -93,6 +93,11 @@ pub enum Command {
         /// `multiplier`, Lagrange multipliers on a ring (`numerics.rigid_condition`).
         #[arg(long, value_enum, default_value_t = RigidConditionArg::Weak)]
         rigid_condition: RigidConditionArg,
+        /// x of the cylinder's centre (cylinder study; comma-separated, one table row per centre
+        /// and mesh): the channel is periodic, so the flow is the same and only the way the grid
+        /// cuts the cylinder changes. Default: the benchmark's 0.0123R, off the grid lines.
+        #[arg(long, value_delimiter = ',')]
+        center_x: Option<Vec<f64>>,
         /// Mesh of the couette-wall-mode study, NθxNr elements (default 240x45, the Couette
         /// family's; 480x90 is family (iv)'s ε = 2/15).
         #[arg(long)]

@@ -116,6 +116,7 @@ pub(super) fn bench(command: Command) -> anyhow::Result<ExitCode> {
             println!("|---|---|---|---|---|---|---|---|---|---|");
             for hh in h {
                 let r = cylinder_drag(
+                    &crate::geometry::CylinderChannel::BENCHMARK,
                     hh,
                     RigidCondition::Weak,
                     WeakForm::Symmetric,

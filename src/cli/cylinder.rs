@@ -5,6 +5,7 @@
 
 use std::process::ExitCode;
 
+use crate::geometry::CylinderChannel;
 use crate::solver::cutcells::Discretization;
 use crate::solver::multiplier::RigidCondition;
 use crate::solver::rigid::WeakForm;
@@ -14,10 +15,13 @@ use crate::validate::xstokes::{
 };
 
 /// The study at Weissenberg number `wi` on the element sizes `hs` (coarse to fine; the verdict
-/// is the finest one's).
+/// is the finest one's), with the cylinder's centre at each x of `centers` in turn (the
+/// benchmark's channel otherwise).
+#[allow(clippy::too_many_arguments)]
 pub(super) fn validate_cylinder(
     wi: f64,
     hs: &[f64],
+    centers: &[f64],
     dt: f64,
     t_max: f64,
     out: &std::path::Path,
@@ -64,28 +68,32 @@ pub(super) fn validate_cylinder(
         _ => println!("no published value at this Wi: the verdict is the steady state"),
     }
     println!(
-        "| h/R | unknowns | steps | steady | K (traction) | K_L (condition) | K/K_L | K_L rel. to ref. | time |\n\
-         |---|---|---|---|---|---|---|---|---|"
+        "| centre x/R | h/R | unknowns | steps | steady | K (traction) | K_L (condition) | K/K_L | K_L rel. to ref. | time |\n\
+         |---|---|---|---|---|---|---|---|---|---|"
     );
     std::fs::create_dir_all(out)?;
     let mut ok = true;
     let (mut k, mut k_l) = (f64::NAN, f64::NAN);
-    for &h in hs {
+    for (&center_x, &h) in centers.iter().flat_map(|c| hs.iter().map(move |h| (c, h))) {
+        let channel = CylinderChannel {
+            center_x,
+            ..CylinderChannel::BENCHMARK
+        };
         let (dofs, steps, steady, time) = if wi == 0.0 {
-            let r = cylinder_drag(h, condition, WeakForm::Symmetric, method)?;
+            let r = cylinder_drag(&channel, h, condition, WeakForm::Symmetric, method)?;
             (k, k_l) = (r.k_stress, r.k_reaction);
             (r.dofs, "—".to_string(), true, format!("{:.1} s", r.seconds))
         } else {
-            let r = cylinder_drag_viscoelastic(wi, h, dt, t_max, condition, method)?;
+            let r = cylinder_drag_viscoelastic(&channel, wi, h, dt, t_max, condition, method)?;
             (k, k_l) = (r.k_stress, r.k_reaction);
-            write_csvs(out, wi, h, fdm, &r)?;
+            write_csvs(out, wi, h, &channel, fdm, &r)?;
             let time = format!("{:.3} s/step", r.seconds_per_step);
             (r.dofs, r.steps.to_string(), r.steady, time)
         };
         let rel = reference.map(|(kr, _)| (k_l - kr) / kr);
         ok = steady && reference.is_none_or(|(_, tol)| rel.is_some_and(|r| r.abs() < tol));
         println!(
-            "| {h} | {dofs} | {steps} | {steady} | {k:.4} | {k_l:.4} | {:.4} | {} | {time} |",
+            "| {center_x} | {h} | {dofs} | {steps} | {steady} | {k:.4} | {k_l:.4} | {:.4} | {} | {time} |",
             k / k_l,
             rel.map_or("—".into(), |v| format!("{v:+.2e}")),
         );
@@ -107,10 +115,17 @@ fn write_csvs(
     out: &std::path::Path,
     wi: f64,
     h: f64,
+    channel: &CylinderChannel,
     fdm: bool,
     r: &crate::validate::xstokes::ViscoDragResult,
 ) -> anyhow::Result<()> {
-    let tag = if fdm { "_fdm" } else { "" };
+    let method = if fdm { "_fdm" } else { "" };
+    let center = if channel.center_x == CylinderChannel::BENCHMARK.center_x {
+        String::new()
+    } else {
+        format!("_x{}", channel.center_x)
+    };
+    let tag = format!("{method}{center}");
     let mut csv = String::from("t,K_L,K\n");
     for (t, k_l, k) in &r.history {
         csv += &format!("{t},{k_l},{k}\n");

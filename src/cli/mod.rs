@@ -49,9 +49,13 @@ pub fn run(cli: Cli) -> anyhow::Result<ExitCode> {
             method,
             rigid_condition,
             elements,
+            center_x,
         } => match study {
             _ if elements.is_some() && study != Study::CouetteWallMode => {
                 anyhow::bail!("--elements applies to `xpflow validate couette-wall-mode` only")
+            }
+            _ if center_x.is_some() && study != Study::Cylinder => {
+                anyhow::bail!("--center-x applies to `xpflow validate cylinder` only")
             }
             _ if method != args::MethodArg::Xfem && study != Study::Cylinder => {
                 anyhow::bail!("--method fdm applies to `xpflow validate cylinder` only")
@@ -87,6 +91,8 @@ pub fn run(cli: Cli) -> anyhow::Result<ExitCode> {
             Study::Cylinder => cylinder::validate_cylinder(
                 wi,
                 &h.unwrap_or_else(|| validate::default_meshes(study, wi)),
+                &center_x
+                    .unwrap_or_else(|| vec![crate::geometry::CylinderChannel::BENCHMARK.center_x]),
                 dt.unwrap_or(0.01),
                 t_max.unwrap_or(20.0),
                 &out,

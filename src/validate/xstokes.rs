@@ -282,10 +282,10 @@ pub fn solver_for(form: WeakForm) -> SolverKind {
 
 /// The confined-cylinder channel mesh, the fixed cylinder and the cut cells of `method`.
 fn cylinder_channel(
+    channel: &CylinderChannel,
     h: f64,
     method: Discretization,
 ) -> Result<(Mesh, Vec<Particle>, Vec<ElementCut>), StudyError> {
-    let channel = CylinderChannel::BENCHMARK;
     let (ax, ay) = channel.axes(h);
     let mesh = Mesh::rectangle(ax, ay, true);
     let particles = vec![Particle {
@@ -326,8 +326,11 @@ pub struct DragResult {
 /// flow rate with mean velocity U = 1: K = F_x/(η0 U R). Published: 132.358 (thesis Table 2.3).
 /// The mesh is uniform with size `h` on a band |x| ≤ 1.6 and over the whole height, and grows by
 /// 15 % per element toward x = ±15. `method`: XFEM with a cut rule, or the fictitious domain
-/// method (thesis Table 2.4: K = 80.262, K_L = 132.426 on its mesh M3).
+/// method (thesis Table 2.4: K = 80.262, K_L = 132.426 on its mesh M3). `channel` is
+/// [`CylinderChannel::BENCHMARK`] with, at most, its centre moved along the (periodic) channel:
+/// the same flow, cut differently by the grid.
 pub fn cylinder_drag(
+    channel: &CylinderChannel,
     h: f64,
     condition: RigidCondition,
     form: WeakForm,
@@ -336,7 +339,7 @@ pub fn cylinder_drag(
     let t0 = std::time::Instant::now();
     let tc = std::time::Instant::now();
     let method = method.into();
-    let (mesh, particles, cuts) = cylinder_channel(h, method)?;
+    let (mesh, particles, cuts) = cylinder_channel(channel, h, method)?;
     let label = format!("{}x{}", mesh.ax.len(), mesh.ay.len());
     let cut_seconds = tc.elapsed().as_secs_f64();
     let mut params = StokesParams::new(1.0, 0.0, solver_for(form));
@@ -349,7 +352,7 @@ pub fn cylinder_drag(
     // Stokes flow is linear in the driving force: solve with a unit body force, then scale to U = 1.
     let sol = st.solve(&|_| [1.0, 0.0])?;
     let q = st.mesh.flux_through_first_column(&sol.u);
-    let scale = CylinderChannel::BENCHMARK.flow_rate() / q;
+    let scale = channel.flow_rate() / q;
     // The body force f stands for a mean pressure gradient −f e_x: the true pressure is the
     // periodic one minus f x, whose traction on the cylinder adds f·πR² to the drag. With the
     // fictitious domain method the body force also acts on the fluid inside the cylinder, and
@@ -451,8 +454,9 @@ const PROGRESS_EVERY: usize = 100;
 /// Oldroyd-B flow past the confined cylinder (thesis §2.5: η_s/η0 = 0.59, H = 4R, L = 30R, mean
 /// velocity U = 1, Wi = λU/R), explicit stress coupling with DEVSS-G, run from rest until the
 /// steady criterion or `t_max`, with XFEM or the fictitious domain method. Published K: 123.19 at
-/// Wi = 0.3, 117.77 at Wi = 0.6 (Table 2.4).
+/// Wi = 0.3, 117.77 at Wi = 0.6 (Table 2.4). `channel` as in [`cylinder_drag`].
 pub fn cylinder_drag_viscoelastic(
+    channel: &CylinderChannel,
     wi: f64,
     h: f64,
     dt: f64,
@@ -461,13 +465,12 @@ pub fn cylinder_drag_viscoelastic(
     method: impl Into<Discretization>,
 ) -> Result<ViscoDragResult, StudyError> {
     use crate::solver::viscoelastic::{ViscoelasticFlow, ViscoelasticParams};
-    let (mesh, particles, cuts) = cylinder_channel(h, method.into())?;
+    let (mesh, particles, cuts) = cylinder_channel(channel, h, method.into())?;
     let mut params = ViscoelasticParams::new(0.59, 0.41, wi, 0.0, dt, t_max);
     params.rigid_condition = condition;
     let mut flow = ViscoelasticFlow::with_particles(mesh, params, particles, cuts)?;
-    crate::solver::moving::apply_walls(&CylinderChannel::BENCHMARK, &mut flow)
-        .expect("walls alone cannot fail");
-    flow.set_flow_rate(CylinderChannel::BENCHMARK.flow_rate())?;
+    crate::solver::moving::apply_walls(channel, &mut flow).expect("walls alone cannot fail");
+    flow.set_flow_rate(channel.flow_rate())?;
     let mut history = Vec::new();
     let t0 = std::time::Instant::now();
     let summary = flow.run(&|_| [0.0, 0.0], true, |f, rep| {
@@ -491,7 +494,7 @@ pub fn cylinder_drag_viscoelastic(
     for k in 0..=200 {
         let th = std::f64::consts::PI * (1.0 - k as f64 / 200.0);
         let p = [
-            CylinderChannel::BENCHMARK.center_x + ON_FLUID_SIDE * th.cos(),
+            channel.center_x + ON_FLUID_SIDE * th.cos(),
             ON_FLUID_SIDE * th.sin(),
         ];
         if let Some(t) = flow.polymer_stress_at(p) {
@@ -499,10 +502,10 @@ pub fn cylinder_drag_viscoelastic(
         }
     }
     for k in 0..=300 {
-        let x = CylinderChannel::BENCHMARK.center_x + ON_FLUID_SIDE + 14.0 * k as f64 / 300.0;
+        let x = channel.center_x + ON_FLUID_SIDE + 14.0 * k as f64 / 300.0;
         if let Some(t) = flow.polymer_stress_at([x, 0.0]) {
             tau_xx.push([
-                std::f64::consts::PI + (x - CylinderChannel::BENCHMARK.center_x - 1.0),
+                std::f64::consts::PI + (x - channel.center_x - 1.0),
                 x,
                 0.0,
                 t.xx,
