@@ -11,7 +11,7 @@ use xpflow::cli::sweep_cmds::{
 };
 use xpflow::config::{ConfigError, SweepSpec};
 use xpflow::observe::OutcomeKind;
-use xpflow::store::Format;
+use xpflow::store::{Format, Store};
 use xpflow::sweep::solver_runner::SolverRunner;
 use xpflow::sweep::{expand, FakeBehaviour, FakeRunner};
 
@@ -221,6 +221,80 @@ fn the_estimate_reads_what_the_database_has_done() {
         .count();
     assert_eq!(done, 2, "{after}");
     assert!(after.contains(", 0.0 of them not done yet"), "{after}");
+}
+
+/// `--case`: only the selected cases run (by a prefix of the id), the sweep's others stay
+/// registered and pending; an id that selects no case, or several, is refused before anything is
+/// written.
+#[test]
+fn only_the_selected_cases_run() {
+    let dir = scratch("select");
+    let file = dir.join("s.toml");
+    std::fs::write(&file, GOOD).unwrap();
+    let db = dir.join("r.db");
+    let cases = expand(&SweepSpec::from_file(&file).unwrap()).unwrap();
+    let wanted = cases[1].id.clone();
+    let runner = FakeRunner::new(|_| FakeBehaviour::Produce(OutcomeKind::Repel));
+    for (given, why) in [("0000000000000000", "no case"), ("", "an empty id")] {
+        let a = SweepArgs {
+            cases: vec![given.into()],
+            ..args(&file, &db)
+        };
+        let code = run_sweep_with(&a, &runner, &mut Vec::new()).unwrap();
+        assert_eq!(code, ExitCode::from(2), "{why}");
+        assert!(!db.exists(), "{why}: nothing may be written");
+    }
+    // a cluster submission runs whole sweeps
+    let mut on_cluster = SweepArgs {
+        cases: vec![wanted.clone()],
+        ..args(&file, &db)
+    };
+    on_cluster.slurm.slurm = true;
+    let code = run_sweep_with(&on_cluster, &runner, &mut Vec::new()).unwrap();
+    assert_eq!(code, ExitCode::from(2));
+    assert!(!db.exists());
+    let a = SweepArgs {
+        cases: vec![wanted[..6].to_string()],
+        ..args(&file, &db)
+    };
+    // the listing shows the selected case alone
+    let mut out = Vec::new();
+    let dry = SweepArgs {
+        dry_run: true,
+        ..a.clone()
+    };
+    assert_eq!(
+        run_sweep_with(&dry, &runner, &mut out).unwrap(),
+        ExitCode::SUCCESS
+    );
+    let listing = String::from_utf8(out).unwrap();
+    assert!(
+        listing.contains(&wanted) && !listing.contains(&cases[0].id),
+        "{listing}"
+    );
+    assert!(listing.contains("1 of the 2 cases"), "{listing}");
+    let mut out = Vec::new();
+    let quiet_summary = SweepArgs { quiet: false, ..a };
+    assert_eq!(
+        run_sweep_with(&quiet_summary, &runner, &mut out).unwrap(),
+        ExitCode::SUCCESS
+    );
+    let summary = String::from_utf8(out).unwrap();
+    assert!(
+        summary.contains("1 run") && summary.contains("1 not selected"),
+        "{summary}"
+    );
+    let store = Store::open_read_only(&db).unwrap();
+    let status = |id: &str| -> String {
+        store
+            .connection()
+            .query_row("SELECT status FROM cases WHERE case_hash = ?1", [id], |r| {
+                r.get(0)
+            })
+            .unwrap()
+    };
+    assert_eq!(status(&wanted), "done");
+    assert_eq!(status(&cases[0].id), "pending");
 }
 
 #[test]
@@ -438,7 +512,7 @@ fn export_ships_the_finished_cases_thinned() {
     )
     .unwrap();
     {
-        let mut store = xpflow::store::Store::open(&db).unwrap();
+        let mut store = Store::open(&db).unwrap();
         let id = store.register_sweep(&extra).unwrap();
         store
             .link_cases(id, &xpflow::sweep::expand(&extra).unwrap())

@@ -49,6 +49,12 @@ pub struct SweepArgs {
     /// Rerun cases recorded as failed.
     #[arg(long)]
     pub retry_failed: bool,
+    /// Run only these cases (ids, or unique prefixes of them, as `--dry-run` lists them;
+    /// comma-separated or repeated): the sweep's other cases stay registered with their results
+    /// and are not run. With `--dry-run`, list (and estimate) only these. Not with `--slurm` or a
+    /// sweep file with a `[search]` or `[tries]` section.
+    #[arg(long = "case", value_name = "ID", value_delimiter = ',')]
+    pub cases: Vec<String>,
     /// Minutes between saved solver states of a running case: a killed case continues from its
     /// last one (0: after every step).
     #[arg(long, default_value_t = 5.0, value_parser = minutes)]
@@ -168,6 +174,23 @@ pub fn run_sweep_with(
         Ok(s) => s,
         Err(e) => return invalid(&e),
     };
+    if !args.cases.is_empty() {
+        let with = if spec.search.is_some() {
+            Some("a sweep file with a [search] section (its cases are chosen as it runs)")
+        } else if spec.tries.is_some() {
+            Some("a sweep file with a [tries] section (its rounds choose the cases)")
+        } else if args.slurm.slurm {
+            Some("--slurm")
+        } else {
+            None
+        };
+        if let Some(with) = with {
+            return invalid(&format!(
+                "{}: --case cannot be used with {with}",
+                args.file.display()
+            ));
+        }
+    }
     if spec.search.is_some() {
         return super::search_cmds::run_search(args, &spec, runner, out);
     }
@@ -178,22 +201,42 @@ pub fn run_sweep_with(
     if spec.tries.is_some() {
         return super::tries_cmds::run(args, &spec, &cases, runner, out);
     }
+    let only = match select_cases(&cases, &args.cases) {
+        Ok(only) => only,
+        Err(e) => return invalid(&format!("{}: {e}", args.file.display())),
+    };
     if args.dry_run {
-        list_cases(&cases, out)?;
-        writeln!(out, "{} cases in sweep {}", cases.len(), spec.name)?;
+        let listed: Vec<PlannedCase> = cases
+            .iter()
+            .filter(|c| only.as_ref().is_none_or(|o| o.contains(&c.id)))
+            .cloned()
+            .collect();
+        list_cases(&listed, out)?;
+        if listed.len() < cases.len() {
+            writeln!(
+                out,
+                "{} of the {} cases in sweep {} (--case)",
+                listed.len(),
+                cases.len(),
+                spec.name
+            )?;
+        } else {
+            writeln!(out, "{} cases in sweep {}", cases.len(), spec.name)?;
+        }
         if args.resolved {
-            print_resolved(&cases, out)?;
+            print_resolved(&listed, out)?;
         }
         if args.estimate {
             let db = sweep_options(args, &spec).db;
-            super::estimate::print_estimate(&cases, &db, out)?;
+            super::estimate::print_estimate(&listed, &db, out)?;
         }
         return Ok(ExitCode::SUCCESS);
     }
     if args.slurm.slurm {
         return super::cluster::sweep_slurm(args, &spec, &cases, runner, out);
     }
-    let opts = sweep_options(args, &spec);
+    let mut opts = sweep_options(args, &spec);
+    opts.only = only;
     match crate::sweep::run_sweep(&spec, &cases, runner, &opts) {
         Ok(summary) => {
             if !args.quiet {
@@ -202,9 +245,14 @@ pub fn run_sweep_with(
                 } else {
                     String::new()
                 };
+                let left_out = if summary.left_out > 0 {
+                    format!(", {} not selected (--case)", summary.left_out)
+                } else {
+                    String::new()
+                };
                 writeln!(
                     out,
-                    "sweep {}: {} cases, {} run, {} failed, {} skipped (done before){elsewhere}; \
+                    "sweep {}: {} cases, {} run, {} failed, {} skipped (done before){elsewhere}{left_out}; \
                      results in {}",
                     spec.name,
                     summary.total,
@@ -227,6 +275,47 @@ pub fn run_sweep_with(
         Err(SweepError::Store(e)) if e.is_bad_input() => invalid(&e),
         Err(e) => Err(e).context(format!("sweep {}", spec.name)),
     }
+}
+
+/// The case ids `--case` selects (`None` when it is not given): each of `wanted` must be the id,
+/// or a prefix of the id, of exactly one case.
+pub(super) fn select_cases(
+    cases: &[PlannedCase],
+    wanted: &[String],
+) -> Result<Option<std::collections::BTreeSet<String>>, String> {
+    if wanted.is_empty() {
+        return Ok(None);
+    }
+    let mut only = std::collections::BTreeSet::new();
+    for w in wanted {
+        let w = w.trim();
+        let matching: Vec<&PlannedCase> = cases
+            .iter()
+            .filter(|c| !w.is_empty() && c.id.starts_with(w))
+            .collect();
+        match matching.as_slice() {
+            [c] => {
+                only.insert(c.id.clone());
+            }
+            [] => {
+                return Err(format!(
+                    "--case `{w}`: no case of the sweep has this id (`--dry-run` lists them)"
+                ))
+            }
+            several => {
+                return Err(format!(
+                    "--case `{w}`: ambiguous, the id of {} cases begins so ({}): give more of it",
+                    several.len(),
+                    several
+                        .iter()
+                        .map(|c| c.id.as_str())
+                        .collect::<Vec<_>>()
+                        .join(", ")
+                ))
+            }
+        }
+    }
+    Ok(Some(only))
 }
 
 /// The `--dry-run` listing of planned cases: index, id, label.

@@ -53,6 +53,9 @@ pub struct SweepOptions {
     /// Link the cases run to the sweep without unlinking its others (the caller registered the
     /// sweep's cases: a round of tries); by default the sweep's cases become exactly these.
     pub keep_links: bool,
+    /// Run only the cases with these ids (`xpflow sweep --case`); the sweep's others are
+    /// registered as always and left as they are. `None`: every case.
+    pub only: Option<std::collections::BTreeSet<String>>,
 }
 
 impl SweepOptions {
@@ -71,6 +74,7 @@ impl SweepOptions {
             max_case_memory: memory::total(),
             publish: None,
             keep_links: false,
+            only: None,
         }
     }
 }
@@ -88,6 +92,8 @@ pub struct SweepSummary {
     pub skipped: usize,
     /// Cases not run because another process is running them.
     pub elsewhere: usize,
+    /// Cases left out by [`SweepOptions::only`] (whatever their status).
+    pub left_out: usize,
     /// Interrupted cases reset to pending before running.
     pub reset: usize,
     /// Outcome kinds of the cases run, in case order.
@@ -182,6 +188,9 @@ pub fn run_sweep(
             .prepare("SELECT status FROM cases WHERE case_hash = ?1")
             .map_err(err)?;
         for c in cases {
+            if opts.only.as_ref().is_some_and(|only| !only.contains(&c.id)) {
+                continue;
+            }
             let status: String = st.query_row([&c.id], |r| r.get(0)).map_err(err)?;
             match status.as_str() {
                 "pending" => pending.push(c),
@@ -205,8 +214,16 @@ pub fn run_sweep(
             c.label, c.id
         ));
     }
+    let left_out = opts.only.as_ref().map_or(0, |only| {
+        cases.iter().filter(|c| !only.contains(&c.id)).count()
+    });
+    let selected = if left_out > 0 {
+        format!(" ({} selected by --case)", cases.len() - left_out)
+    } else {
+        String::new()
+    };
     progress.log(&format!(
-        "sweep {}: {} cases, {} to run ({} reset after interruption), {jobs} at a time, database {}",
+        "sweep {}: {} cases{selected}, {} to run ({} reset after interruption), {jobs} at a time, database {}",
         sweep.name,
         cases.len(),
         pending.len(),
@@ -259,6 +276,7 @@ pub fn run_sweep(
     let mut summary = SweepSummary {
         total: cases.len(),
         reset,
+        left_out,
         ..Default::default()
     };
     for (_, case, r) in results {
@@ -273,7 +291,7 @@ pub fn run_sweep(
         }
     }
     summary.elsewhere += running_elsewhere.len();
-    summary.skipped += cases.len() - pending.len() - running_elsewhere.len();
+    summary.skipped += cases.len() - left_out - pending.len() - running_elsewhere.len();
     Ok(summary)
 }
 

@@ -53,6 +53,7 @@ pub fn sweep_args(file: &Path, db: &Path) -> xpflow::cli::sweep_cmds::SweepArgs 
         estimate: false,
         quiet: true,
         retry_failed: false,
+        cases: Vec::new(),
         state_every: 5.0,
         max_memory: None,
         max_cases: xpflow::sweep::expand::DEFAULT_MAX_CASES,
