@@ -454,10 +454,27 @@ impl DirectSolver {
             Err(SolveError::Inaccurate { .. })
                 if matches!(self.backend, Backend::SymmetricPart(_)) =>
             {
-                // the symmetric part no longer preconditions A well enough: factor A itself
-                self.probe = Probe::Decided;
-                self.fall_back_to_lu(a)?;
-                checked_solve(a, b, x, tol, &mut |v| self.solve_in_place(v))?
+                // a symmetric part factored without pivots: with pivots first
+                let mut repivoted = None;
+                if let Backend::SymmetricPart(sp) = &mut self.backend {
+                    if sp.is_unpivoted() {
+                        sp.repivot()?;
+                        self.pivoted_refactors += 1;
+                        repivoted =
+                            Some(checked_solve(a, b, x, tol, &mut |v| self.solve_in_place(v)));
+                    }
+                }
+                match repivoted {
+                    Some(Ok(solved)) => solved,
+                    Some(Err(e)) if !matches!(e, SolveError::Inaccurate { .. }) => return Err(e),
+                    _ => {
+                        // the symmetric part no longer preconditions A well enough: factor A
+                        // itself
+                        self.probe = Probe::Decided;
+                        self.fall_back_to_lu(a)?;
+                        checked_solve(a, b, x, tol, &mut |v| self.solve_in_place(v))?
+                    }
+                }
             }
             other => other?,
         };

@@ -10,10 +10,12 @@
 //! `τ = GΔt (L·cⁿ + cⁿ·Lᵀ) + …` tested with D(v) is symmetric in its rate-of-strain part and
 //! non-symmetric only through the vorticity and the convection `−GΔt u·∇cⁿ`, so the symmetric part
 //! is close to A: GMRES needs about 3 iterations to the flow's residual tolerance.
-//! [`DirectSolver`] falls back to faer's LU when the symmetric part cannot be factored or GMRES
-//! misses the tolerance.
+//! The symmetric part is a saddle-point matrix like the explicit coupling's flow matrix and is
+//! factored without pivots where that works ([`Pivoting::WhenNeeded`]): when GMRES then misses
+//! the tolerance, [`DirectSolver`] refactors it with pivots first, and falls back to faer's LU
+//! when the symmetric part cannot be factored or GMRES still misses.
 
-use super::{DirectSolver, SolveError, SolverKind};
+use super::{DirectSolver, Pivoting, SolveError, SolverKind};
 use crate::fem::sparse::SparseMatrix;
 
 /// The LBLᵀ of (A + Aᵀ)/2 for one pattern, refreshed at every [`factor`](Self::factor).
@@ -39,7 +41,8 @@ impl SymmetricPart {
             }
         }
         let sym = a.clone();
-        let lblt = DirectSolver::analyze_with_order(&sym, SolverKind::Lblt, order)?;
+        let mut lblt = DirectSolver::analyze_with_order(&sym, SolverKind::Lblt, order)?;
+        lblt.set_pivoting(Pivoting::WhenNeeded);
         Ok(Self { lblt, sym, mirror })
     }
 
@@ -49,6 +52,17 @@ impl SymmetricPart {
             *v = 0.5 * (a.values[p] + a.values[self.mirror[p]]);
         }
         self.lblt.factor_equilibrated(&self.sym)
+    }
+
+    /// Whether the symmetric part was last factored without pivots.
+    pub(super) fn is_unpivoted(&self) -> bool {
+        self.lblt.is_unpivoted()
+    }
+
+    /// Refactors the symmetric part of the last [`factor`](Self::factor) with pivots (its
+    /// unpivoted factor preconditioned too poorly).
+    pub(super) fn repivot(&mut self) -> Result<(), SolveError> {
+        self.lblt.factor_scaled(&self.sym, false, Pivoting::Always)
     }
 
     /// Applies the inverse of the symmetric part (the preconditioner) in place.

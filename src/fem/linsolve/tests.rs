@@ -85,6 +85,37 @@ fn a_non_symmetric_system_is_solved_through_its_symmetric_part_or_by_lu() {
     }
 }
 
+/// The symmetric part is factored without pivots where that works; when its factor
+/// preconditions poorly (a leading velocity pivot of 4e-16: the unpivoted LDLᵀ's entries grow by
+/// 1e16 and carry no digit), GMRES misses, the symmetric part is refactored with pivots and the solve meets the
+/// tolerance without falling back to LU.
+#[test]
+fn the_symmetric_part_is_factored_without_pivots_and_repivoted_when_it_preconditions_poorly() {
+    // residual tolerance: round-off on an 8×8 system
+    const TOL: f64 = 1e-12;
+    let order: Vec<usize> = (0..8).collect();
+    let b: Vec<f64> = (0..8).map(|i| (i as f64).cos() + 0.5).collect();
+    let a = skewed_saddle(0.8, 1.0);
+    let mut s = DirectSolver::analyze_with_order(&a, SolverKind::Lu, &order).unwrap();
+    s.factor(&a).unwrap();
+    let Backend::SymmetricPart(sp) = &s.backend else {
+        panic!("the symmetric part preconditions")
+    };
+    assert!(sp.is_unpivoted());
+    let mut x = vec![0.0; 8];
+    assert!(s.solve_checked(&a, &b, &mut x, TOL).unwrap() < TOL);
+    assert_eq!((s.pivoted_refactors(), s.lu_fallbacks()), (0, 0));
+    // the leading velocity pivot 4 → 4e-16
+    let mut a = skewed_saddle(0.8, 1.0);
+    let p = a.position(0, 0);
+    a.values[p] = 4e-16;
+    let mut s = DirectSolver::analyze_with_order(&a, SolverKind::Lu, &order).unwrap();
+    s.factor(&a).unwrap();
+    let res = s.solve_checked(&a, &b, &mut x, TOL).unwrap();
+    assert!(res < TOL, "{res}");
+    assert_eq!((s.pivoted_refactors(), s.lu_fallbacks()), (1, 0));
+}
+
 #[test]
 fn lblt_and_lu_solve_saddle_point_and_refactor() {
     // residual tolerance: round-off on an 8×8 well-conditioned system
