@@ -14,6 +14,10 @@
 //! factored without pivots where that works ([`Pivoting::WhenNeeded`]): when GMRES then misses
 //! the tolerance, [`DirectSolver`] refactors it with pivots first, and falls back to faer's LU
 //! when the symmetric part cannot be factored or GMRES still misses.
+//!
+//! The symmetric part is written straight into the elimination order, its lower triangle only,
+//! so that the factorization takes it as stored (faer would otherwise copy it into the order at
+//! every factorization); the solves permute the right-hand side into that order and back.
 
 use super::{DirectSolver, Pivoting, SolveError, SolverKind};
 use crate::fem::sparse::SparseMatrix;
@@ -21,9 +25,14 @@ use crate::fem::sparse::SparseMatrix;
 /// The LBLᵀ of (A + Aᵀ)/2 for one pattern, refreshed at every [`factor`](Self::factor).
 pub(super) struct SymmetricPart {
     lblt: DirectSolver,
+    /// The lower triangle of P (A + Aᵀ)/2 Pᵀ, P the elimination order.
     sym: SparseMatrix,
-    /// For the entry (i, j) at each position, the position of (j, i).
-    mirror: Vec<usize>,
+    /// For each entry of `sym`, the positions in A of the entry (i, j) it stands for and of
+    /// (j, i).
+    source: Vec<[usize; 2]>,
+    /// The dof eliminated k-th (P), and a work vector in that order.
+    order: Vec<usize>,
+    work: Vec<f64>,
 }
 
 impl SymmetricPart {
@@ -33,23 +42,47 @@ impl SymmetricPart {
     /// # Panics
     /// If `a`'s pattern is not symmetric.
     pub(super) fn analyze(a: &SparseMatrix, order: &[usize]) -> Result<Self, SolveError> {
-        let mut mirror = vec![0usize; a.nnz()];
-        for j in 0..a.n() {
-            let (rows, range) = a.column(j);
-            for (&i, p) in rows.iter().zip(range) {
-                mirror[p] = a.position(j, i);
-            }
+        let n = a.n();
+        let mut at = vec![0usize; n];
+        for (k, &d) in order.iter().enumerate() {
+            at[d] = k;
         }
-        let sym = a.clone();
-        let mut lblt = DirectSolver::analyze_with_order(&sym, SolverKind::Lblt, order)?;
+        // column l of the permuted lower triangle: A's column order[l], rows at or below l
+        let (mut col_ptr, mut row_idx, mut source) =
+            (Vec::with_capacity(n + 1), Vec::new(), Vec::new());
+        let mut column: Vec<(usize, [usize; 2])> = Vec::new();
+        col_ptr.push(0);
+        for (l, &j) in order.iter().enumerate() {
+            let (rows, range) = a.column(j);
+            column.clear();
+            column.extend(
+                rows.iter()
+                    .zip(range)
+                    .filter(|(&i, _)| at[i] >= l)
+                    .map(|(&i, p)| (at[i], [p, a.position(j, i)])),
+            );
+            column.sort_unstable_by_key(|e| e.0);
+            row_idx.extend(column.iter().map(|e| e.0));
+            source.extend(column.iter().map(|e| e.1));
+            col_ptr.push(row_idx.len());
+        }
+        let sym = SparseMatrix::from_pattern(n, col_ptr, row_idx);
+        let identity: Vec<usize> = (0..n).collect();
+        let mut lblt = DirectSolver::analyze_with_order(&sym, SolverKind::Lblt, &identity)?;
         lblt.set_pivoting(Pivoting::WhenNeeded);
-        Ok(Self { lblt, sym, mirror })
+        Ok(Self {
+            lblt,
+            sym,
+            source,
+            order: order.to_vec(),
+            work: vec![0.0; n],
+        })
     }
 
     /// Factors the symmetric part of `a` (the analysed pattern, equilibrated by the caller).
     pub(super) fn factor(&mut self, a: &SparseMatrix) -> Result<(), SolveError> {
-        for (p, v) in self.sym.values.iter_mut().enumerate() {
-            *v = 0.5 * (a.values[p] + a.values[self.mirror[p]]);
+        for (v, &[p, q]) in self.sym.values.iter_mut().zip(&self.source) {
+            *v = 0.5 * (a.values[p] + a.values[q]);
         }
         self.lblt.factor_equilibrated(&self.sym)
     }
@@ -67,6 +100,13 @@ impl SymmetricPart {
 
     /// Applies the inverse of the symmetric part (the preconditioner) in place.
     pub(super) fn solve_in_place(&mut self, rhs: &mut [f64]) -> Result<(), SolveError> {
-        self.lblt.solve_in_place(rhs)
+        for (w, &d) in self.work.iter_mut().zip(&self.order) {
+            *w = rhs[d];
+        }
+        self.lblt.solve_in_place(&mut self.work)?;
+        for (w, &d) in self.work.iter().zip(&self.order) {
+            rhs[d] = *w;
+        }
+        Ok(())
     }
 }
