@@ -12,8 +12,9 @@
 //! is close to A: GMRES needs about 3 iterations to the flow's residual tolerance.
 //! The symmetric part is a saddle-point matrix like the explicit coupling's flow matrix and is
 //! factored without pivots where that works ([`Pivoting::WhenNeeded`]): when GMRES then misses
-//! the tolerance, [`DirectSolver`] refactors it with pivots first, and falls back to faer's LU
-//! when the symmetric part cannot be factored or GMRES still misses.
+//! the tolerance, [`DirectSolver`] refactors it with pivots first (and with pivots from then on,
+//! for the pattern), and falls back to faer's LU when the symmetric part cannot be factored or
+//! GMRES still misses.
 //!
 //! The symmetric part is written straight into the elimination order, its lower triangle only,
 //! so that the factorization takes it as stored (faer would otherwise copy it into the order at
@@ -93,8 +94,11 @@ impl SymmetricPart {
     }
 
     /// Refactors the symmetric part of the last [`factor`](Self::factor) with pivots (its
-    /// unpivoted factor preconditioned too poorly).
+    /// unpivoted factor preconditioned too poorly), and every later one: finding that out cost a
+    /// whole GMRES cycle, which a pattern whose unpivoted factor failed once should not pay at
+    /// every step.
     pub(super) fn repivot(&mut self) -> Result<(), SolveError> {
+        self.lblt.set_pivoting(Pivoting::Always);
         self.lblt.factor_scaled(&self.sym, false, Pivoting::Always)
     }
 

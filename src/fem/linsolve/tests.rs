@@ -87,8 +87,8 @@ fn a_non_symmetric_system_is_solved_through_its_symmetric_part_or_by_lu() {
 
 /// The symmetric part is factored without pivots where that works; when its factor
 /// preconditions poorly (a leading velocity pivot of 4e-16: the unpivoted LDLᵀ's entries grow by
-/// 1e16 and carry no digit), GMRES misses, the symmetric part is refactored with pivots and the solve meets the
-/// tolerance without falling back to LU.
+/// 1e16 and carry no digit), GMRES misses, the symmetric part is refactored with pivots (and
+/// stays pivoted for the pattern) and the solve meets the tolerance without falling back to LU.
 #[test]
 fn the_symmetric_part_is_factored_without_pivots_and_repivoted_when_it_preconditions_poorly() {
     // residual tolerance: round-off on an 8×8 system
@@ -113,6 +113,14 @@ fn the_symmetric_part_is_factored_without_pivots_and_repivoted_when_it_precondit
     s.factor(&a).unwrap();
     let res = s.solve_checked(&a, &b, &mut x, TOL).unwrap();
     assert!(res < TOL, "{res}");
+    assert_eq!((s.pivoted_refactors(), s.lu_fallbacks()), (1, 0));
+    // from then on the pattern's symmetric part is factored with pivots at once
+    s.factor(&a).unwrap();
+    let Backend::SymmetricPart(sp) = &s.backend else {
+        panic!("still the symmetric part")
+    };
+    assert!(!sp.is_unpivoted());
+    assert!(s.solve_checked(&a, &b, &mut x, TOL).unwrap() < TOL);
     assert_eq!((s.pivoted_refactors(), s.lu_fallbacks()), (1, 0));
 }
 
