@@ -40,14 +40,15 @@ impl SymmetricPart {
     /// The symbolic analysis of the LBLᵀ with the elimination order `order` (`order[k]` = the
     /// dof eliminated k-th).
     ///
-    /// # Panics
-    /// If `a`'s pattern is not symmetric.
+    /// `a`'s pattern must be symmetric (checked in debug builds, by
+    /// [`SparseMatrix::transpose_positions`]).
     pub(super) fn analyze(a: &SparseMatrix, order: &[usize]) -> Result<Self, SolveError> {
         let n = a.n();
         let mut at = vec![0usize; n];
         for (k, &d) in order.iter().enumerate() {
             at[d] = k;
         }
+        let mirror = a.transpose_positions();
         // column l of the permuted lower triangle: A's column order[l], rows at or below l
         let (mut col_ptr, mut row_idx, mut source) =
             (Vec::with_capacity(n + 1), Vec::new(), Vec::new());
@@ -60,7 +61,7 @@ impl SymmetricPart {
                 rows.iter()
                     .zip(range)
                     .filter(|(&i, _)| at[i] >= l)
-                    .map(|(&i, p)| (at[i], [p, a.position(j, i)])),
+                    .map(|(&i, p)| (at[i], [p, mirror[p] as usize])),
             );
             column.sort_unstable_by_key(|e| e.0);
             row_idx.extend(column.iter().map(|e| e.0));
