@@ -242,3 +242,59 @@ fn a_useless_unpivoted_factor_fails_its_check() {
         assert_eq!(s.last_polish_iterations(), 0, "eps {eps}");
     }
 }
+
+/// Makes `dofs` identity rows and columns of `a`, keeping their entries in the pattern as zeros
+/// (as the flow matrix does for the dofs inside a particle).
+fn make_identity(a: &mut SparseMatrix, dofs: &[usize]) {
+    let is = |d: usize| dofs.contains(&d);
+    for j in 0..a.n() {
+        let (rows, range) = a.column(j);
+        let rows = rows.to_vec();
+        for (i, p) in rows.into_iter().zip(range) {
+            if is(i) || is(j) {
+                a.values[p] = if i == j { 1.0 } else { 0.0 };
+            }
+        }
+    }
+}
+
+/// Inert dofs (identity rows whose couplings the pattern stores as zeros, like those deep
+/// inside a particle) leave M's pattern: the band solver still solves as the whole
+/// factorization does, and a coupling of theirs that becomes non-zero no longer fits.
+#[test]
+fn inert_couplings_leave_m_and_are_checked() {
+    let (n, range) = (90, 30..45);
+    // velocities 33..39 and the two pressures of theirs, inside the band interior
+    let identity: Vec<usize> = (33..39).chain([n + 11, n + 12]).collect();
+    let matrix = |scale: f64| {
+        let mut a = chain(n, scale, range.clone());
+        make_identity(&mut a, &identity);
+        a
+    };
+    let a0 = matrix(2.0);
+    let nd = a0.n();
+    let (band, blocks) = (chain_band(n, nd), chain_blocks(n, nd));
+    let gamma = Substructured::interface(&a0, &band);
+    let inert: Vec<bool> = (0..nd).map(|d| identity.contains(&d)).collect();
+    let mut sub =
+        Substructured::with_interface(&a0, &band, &gamma, &inert, &blocks, 1e-10).unwrap();
+    let plain = Substructured::new(&a0, &band, &blocks, 1e-10).unwrap();
+    // the chain's seven links 32–33 … 38–39 and the two pressures' three velocities each, both
+    // ways
+    assert_eq!(sub.inert_entries(), 2 * (7 + 2 * 3));
+    assert_eq!(sub.m.nnz() + sub.inert_entries(), plain.m.nnz());
+    let b: Vec<f64> = (0..nd).map(|i| (0.3 * i as f64).cos()).collect();
+    for scale in [2.0, 1e-4, 50.0] {
+        let a = matrix(scale);
+        assert_solves_as_whole(&mut sub, &a, &b, &format!("inert, band scale {scale}"));
+    }
+    let mut coupled = matrix(2.0);
+    coupled.add(35, 36, -0.5);
+    coupled.add(36, 35, -0.5);
+    assert!(!sub.fits(&coupled), "an inert coupling became non-zero");
+    // a dof called inert whose couplings are not zero keeps them
+    let mut loose = inert.clone();
+    loose[20 + 20] = true;
+    let kept = Substructured::with_interface(&a0, &band, &gamma, &loose, &blocks, 1e-10).unwrap();
+    assert_eq!(kept.inert_entries(), sub.inert_entries());
+}
