@@ -257,25 +257,57 @@ pub fn moving_case(
     }))
 }
 
-/// One viscoelastic time step of [`moving_case`], built by [`crate::simulate::Simulation::new`]
-/// as every case is, once per path of `paths`: each built and stepped
-/// `warm_up` untimed steps in turn, then their timed steps alternated (one of each in turn, so
-/// that a machine whose speed drifts slows them alike), medians over `steps` steps. The memory
-/// reported is the peak resident memory a path added while it was built and warmed up (the
-/// process's peak reset before, [`reset_peak_rss`]; the process's peak if it cannot be reset).
+/// The case of a path of [`moving`] (from the benchmark's own [`moving_case`] or a study's).
+pub type CaseOnPath<'a> =
+    dyn Fn(MovingPath) -> Result<crate::config::CaseSpec, crate::config::SpecError> + 'a;
+
+/// What [`moving`] runs: the case on each path, the label of its mesh column, and the state all
+/// paths start from.
+pub struct MovingSource<'a> {
+    /// The mesh column of the table.
+    pub label: String,
+    /// The case on a path.
+    pub case: &'a CaseOnPath<'a>,
+    /// A checkpoint ([`crate::simulate::Simulation::checkpoint`], as a sweep saves it) every
+    /// path continues from instead of starting from rest.
+    pub state: Option<&'a str>,
+}
+
+impl<'a> MovingSource<'a> {
+    /// The benchmark's own case ([`moving_case`]) of `n` particles on an `nx × ny` mesh.
+    pub fn standard(nx: usize, ny: usize, follow: Option<f64>, case: &'a CaseOnPath<'a>) -> Self {
+        MovingSource {
+            label: match follow {
+                Some(r) => format!("{nx}x{ny} following ×{r}"),
+                None => format!("{nx}x{ny}"),
+            },
+            case,
+            state: None,
+        }
+    }
+}
+
+/// A case with the factorization and ALE extent of `path`.
+pub fn on_path(mut case: crate::config::CaseSpec, path: MovingPath) -> crate::config::CaseSpec {
+    case.numerics.factorization = path.factorization;
+    case.numerics.ale_extent = path.ale;
+    case
+}
+
+/// One viscoelastic time step of `source`'s case, built by
+/// [`crate::simulate::Simulation::new`] as every case is, once per path of `paths` (from the
+/// source's state if it has one): each built and stepped `warm_up` untimed steps in turn, then
+/// their timed steps alternated (one of each in turn, so that a machine whose speed drifts slows
+/// them alike), medians over `steps` steps. The memory reported is the peak resident memory a
+/// path added while it was built and warmed up (the process's peak reset before,
+/// [`reset_peak_rss`]; the process's peak if it cannot be reset).
 ///
 /// # Errors
-/// The case's validation error, a set-up or step failure, or particles touching.
-#[allow(clippy::too_many_arguments)]
+/// The case's validation error, a set-up, restore or step failure, or particles touching.
 pub fn moving(
-    nx: usize,
-    ny: usize,
-    n: usize,
+    source: &MovingSource<'_>,
     warm_up: usize,
     steps: usize,
-    coupled_g: bool,
-    follow: Option<f64>,
-    cut: Option<(u32, crate::config::InterfaceRule)>,
     paths: &[MovingPath],
 ) -> anyhow::Result<Vec<MovingBench>> {
     use crate::simulate::Simulation;
@@ -292,10 +324,14 @@ pub fn moving(
     let mut sims = Vec::new();
     let mut memory = Vec::new();
     for &path in paths {
-        let case = moving_case(nx, ny, n, coupled_g, follow, cut, path)?;
+        let case = (source.case)(path)?;
         let before = current_rss_mb();
         let reset = reset_peak_rss();
         let mut sim = Simulation::new(&case)?;
+        if let Some(state) = source.state {
+            sim.restore(state)
+                .map_err(|e| anyhow::anyhow!("bench: the saved state does not fit: {e}"))?;
+        }
         for _ in 0..warm_up {
             step(&mut sim)?;
         }
@@ -319,11 +355,8 @@ pub fn moving(
             let med = |f: &dyn Fn(&StepTimings) -> f64| median(reports.iter().map(f).collect());
             let flow = sim.stepper().flow();
             MovingBench {
-                mesh: match follow {
-                    Some(r) => format!("{nx}x{ny} following ×{r}"),
-                    None => format!("{nx}x{ny}"),
-                },
-                particles: n,
+                mesh: source.label.clone(),
+                particles: sim.stepper().state().x.len(),
                 unknowns: flow.sizes(),
                 steps,
                 median: StepTimings {

@@ -148,6 +148,19 @@ pub enum Command {
         /// then the whole mesh (with `--factorization band` or `whole`).
         #[arg(long, value_enum, default_value_t = AleArg::Whole)]
         ale: AleArg,
+        /// Moving benchmark: a study's case instead of the benchmark's own (the §5.7 set-up on
+        /// `--mesh` with `--particles`): the case `--case` of this sweep file, on each path.
+        #[arg(long, requires = "case")]
+        sweep: Option<std::path::PathBuf>,
+        /// Moving benchmark with `--sweep`: the case's id, or a unique prefix of it (as `xpflow
+        /// sweep --dry-run` lists them).
+        #[arg(long = "case", requires = "sweep")]
+        case: Option<String>,
+        /// Moving benchmark with `--sweep`: every path continues the case from its saved state in
+        /// this results database (a running or interrupted sweep's; nothing is written), instead
+        /// of from rest.
+        #[arg(long, requires = "sweep")]
+        db: Option<std::path::PathBuf>,
     },
 }
 

@@ -22,6 +22,9 @@ pub(super) fn bench(command: Command) -> anyhow::Result<ExitCode> {
         follow,
         factorization,
         ale,
+        sweep,
+        case,
+        db,
     } = command
     else {
         unreachable!("bench is called with the bench command")
@@ -52,29 +55,44 @@ pub(super) fn bench(command: Command) -> anyhow::Result<ExitCode> {
                     .collect(),
             };
             let paths = paths.as_slice();
-            println!("{}", crate::bench::MovingBench::HEADER);
             let mut closing = Vec::new();
-            for m in mesh.split(',') {
-                let (nx, ny) = parse_mesh(m)?;
-                for &n in &particles {
-                    let cut = Some((cut_level, interface.into()));
-                    let runs = crate::bench::moving(
-                        nx,
-                        ny,
-                        n,
-                        3,
-                        repeats.max(1),
-                        with_g,
-                        follow,
-                        cut,
-                        paths,
-                    )?;
-                    for b in &runs {
-                        println!("{}", b.to_row());
+            let mut print = |runs: Vec<crate::bench::MovingBench>| {
+                for b in &runs {
+                    println!("{}", b.to_row());
+                }
+                if let [new, old] = runs.as_slice() {
+                    println!("{}", crate::bench::ratio_row(new, old));
+                    closing.push(crate::bench::step_line(new, old));
+                }
+            };
+            if let (Some(file), Some(id)) = (sweep, case) {
+                let study = match StudyCase::load(&file, &id, db.as_deref()) {
+                    Ok(s) => s,
+                    Err(e) => {
+                        eprintln!("error: {e}");
+                        return Ok(ExitCode::from(2));
                     }
-                    if let [new, old] = runs.as_slice() {
-                        println!("{}", crate::bench::ratio_row(new, old));
-                        closing.push(crate::bench::step_line(new, old));
+                };
+                if let Some(from) = &study.from {
+                    println!("{from}");
+                }
+                println!("{}", crate::bench::MovingBench::HEADER);
+                let on_path = |p| Ok(crate::bench::on_path(study.spec.clone(), p));
+                let source = crate::bench::MovingSource {
+                    label: study.label.clone(),
+                    case: &on_path,
+                    state: study.state.as_deref(),
+                };
+                print(crate::bench::moving(&source, 3, repeats.max(1), paths)?);
+            } else {
+                println!("{}", crate::bench::MovingBench::HEADER);
+                for m in mesh.split(',') {
+                    let (nx, ny) = parse_mesh(m)?;
+                    for &n in &particles {
+                        let cut = Some((cut_level, interface.into()));
+                        let case = |p| crate::bench::moving_case(nx, ny, n, with_g, follow, cut, p);
+                        let source = crate::bench::MovingSource::standard(nx, ny, follow, &case);
+                        print(crate::bench::moving(&source, 3, repeats.max(1), paths)?);
                     }
                 }
             }
@@ -139,4 +157,62 @@ pub(super) fn bench(command: Command) -> anyhow::Result<ExitCode> {
         }
     }
     Ok(ExitCode::SUCCESS)
+}
+
+/// A study's case for the moving benchmark (`--sweep FILE --case ID [--db DB]`).
+struct StudyCase {
+    /// The case as the sweep expands it.
+    spec: crate::config::CaseSpec,
+    /// The mesh column of the table: the case's label and id.
+    label: String,
+    /// The saved state every path continues from, if `--db` has one.
+    state: Option<String>,
+    /// Where the paths start, when from a saved state.
+    from: Option<String>,
+}
+
+impl StudyCase {
+    /// The case `id` of sweep file `file` and, with `db`, its saved state there.
+    ///
+    /// # Errors
+    /// The reason (file, case), when the sweep file is invalid, `id` selects no single case or
+    /// `db` holds no saved state of it.
+    fn load(
+        file: &std::path::Path,
+        id: &str,
+        db: Option<&std::path::Path>,
+    ) -> Result<Self, String> {
+        let spec = crate::config::SweepSpec::from_file(file).map_err(|e| e.to_string())?;
+        let cases = crate::sweep::expand(&spec).map_err(|e| e.to_string())?;
+        let only = super::sweep_cmds::select_cases(&cases, &[id.to_string()])
+            .map_err(|e| format!("{}: {e}", file.display()))?;
+        let c = cases
+            .into_iter()
+            .find(|c| only.as_ref().is_some_and(|o| o.contains(&c.id)))
+            .ok_or_else(|| format!("{}: --case `{id}`: no such case", file.display()))?;
+        let (state, from) = match db {
+            None => (None, None),
+            Some(db) => {
+                let (step, t, state) = crate::sweep::engine::saved_runner_state(db, &c.id)
+                    .ok_or_else(|| {
+                        format!(
+                            "{}: case {} has no saved state (a sweep with --state-every saves one)",
+                            db.display(),
+                            c.id
+                        )
+                    })?;
+                let from = format!(
+                    "from the saved state of case {} at step {step} (t = {t:.4})",
+                    c.id
+                );
+                (Some(state), Some(from))
+            }
+        };
+        Ok(StudyCase {
+            label: format!("{} ({})", c.label, &c.id[..8.min(c.id.len())]),
+            spec: c.spec,
+            state,
+            from,
+        })
+    }
 }

@@ -20,8 +20,8 @@ use crate::observe::OutcomeKind;
 use crate::store::{CaseRecord, ClaimResult, Store, StoreError};
 
 pub use super::recorder::{
-    failed_state_path, prelude_path, resume_path, saved_failed_state, saved_prelude, saved_state,
-    states_dir,
+    failed_state_path, prelude_path, resume_path, saved_failed_state, saved_prelude,
+    saved_runner_state, saved_state, states_dir,
 };
 
 /// Options of one sweep invocation.

@@ -418,6 +418,12 @@ pub fn saved_state(db: &std::path::Path, hash: &str) -> Option<(u64, f64, String
     state_header(&resume_path(db, hash))
 }
 
+/// The step, time and runner state (a [`crate::simulate::Simulation::checkpoint`]) of the saved
+/// state of case `hash`, if it has a readable one: what a benchmark continues the case from.
+pub fn saved_runner_state(db: &std::path::Path, hash: &str) -> Option<(u64, f64, String)> {
+    ResumeFile::load(&resume_path(db, hash), hash).map(|r| (r.step, r.t, r.solver.get().into()))
+}
+
 /// The step, time and writing build of the state a failed case kept ([`failed_state_path`]),
 /// from which `--retry-failed` continues it.
 pub fn saved_failed_state(db: &std::path::Path, hash: &str) -> Option<(u64, f64, String)> {
