@@ -78,7 +78,16 @@ fn a_study_case_is_benchmarked_from_its_saved_state() {
     child.wait().unwrap();
     let (step, _, _) = xpflow::sweep::engine::saved_state(&db, &id).unwrap();
     let before = std::fs::read(&state).unwrap();
-    let out = bench(&["--sweep", f, "--case", &id, "--db", d, "--factorization", "band"]);
+    let out = bench(&[
+        "--sweep",
+        f,
+        "--case",
+        &id,
+        "--db",
+        d,
+        "--factorization",
+        "band",
+    ]);
     let log = text(&out);
     assert!(out.status.success(), "{log}");
     assert!(

@@ -9,8 +9,8 @@
 
 use faer::linalg::matmul::matmul;
 use faer::perm::PermRef;
-use faer::{Accum, ColMut, ColRef, Par};
 use faer::sparse::linalg::cholesky::{supernodal::SupernodalIntranodeLbltRef, SymbolicCholeskyRaw};
+use faer::{Accum, ColMut, ColRef, Par};
 
 use super::{Backend, DirectSolver, SolveError};
 
