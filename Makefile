@@ -67,6 +67,7 @@ bench: build
 	$(BIN) bench drag
 	$(BIN) bench moving --mesh 100x25,200x50,300x75,440x110 --particles 3
 	$(BIN) bench moving --mesh 200x50 --particles 1,6,9
+	$(BIN) bench moving --sweep sweeps/beta_near_contact.toml --case 6944d776  # a/12 study case, from rest
 	$(BIN) bench expand
 
 # Figures and tables from results databases (plotting/, docs/figures.md): `make figures` plots every
