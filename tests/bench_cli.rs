@@ -10,14 +10,15 @@ use xpflow::sweep::expand;
 
 const EXE: &str = env!("CARGO_BIN_EXE_xpflow");
 
-/// A two-particle shear case on a 40 × 10 mesh, long enough to be stopped in the middle.
+/// A two-particle shear case on a 40 × 10 mesh (the ALE map on a ring), long enough to be
+/// stopped in the middle.
 const SWEEP: &str = r#"
 name = "bench-case"
 [base]
 geometry.confined_shear = { h = 1.0, l = 4.0 }
 fluid = { model = "giesekus", wi = 1.0, alpha = 0.01, beta = 0.1 }
 particles = { radius = 0.1, layout.pair = { lx = 0.5, ly = 0.06 } }
-numerics = { mesh = [40, 10], dt = 0.01, t_end = 5.0 }
+numerics = { mesh = [40, 10], dt = 0.01, t_end = 5.0, ale_extent = "ring" }
 output = { sample_every = 1 }
 "#;
 
@@ -43,11 +44,14 @@ fn a_study_case_is_benchmarked_from_its_saved_state() {
         .clone();
     let f = file.to_str().unwrap();
 
-    // from rest: both paths, the case's label and id in the mesh column
+    // from rest: both paths, the case's label and id in the mesh column, the band path on the
+    // case's own ALE extent (the ring), the refactor path on the whole mesh
     let out = bench(&["--sweep", f, "--case", &id[..6]]);
     let log = text(&out);
     assert!(out.status.success(), "{log}");
     assert!(log.contains(&format!("({})", &id[..8])), "{log}");
+    assert!(log.contains("| band, ALE ring |"), "{log}");
+    assert!(log.contains("| whole (refactor) |"), "{log}");
     assert!(log.contains("step: new"), "{log}");
     assert!(!log.contains("saved state"), "{log}");
 

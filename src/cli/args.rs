@@ -145,9 +145,10 @@ pub enum Command {
         /// Moving benchmark: where the ALE's mesh displacement is solved (`numerics.ale_extent`)
         /// on the paths of `--factorization`; with `--factorization both` on the band path only
         /// (the refactor path is the whole mesh's, as before the ring); `both` runs the ring and
-        /// then the whole mesh (with `--factorization band` or `whole`).
-        #[arg(long, value_enum, default_value_t = AleArg::Whole)]
-        ale: AleArg,
+        /// then the whole mesh (with `--factorization band` or `whole`). Default: the whole
+        /// mesh, or with `--sweep` the case's own `numerics.ale_extent`.
+        #[arg(long, value_enum)]
+        ale: Option<AleArg>,
         /// Moving benchmark: a study's case instead of the benchmark's own (the §5.7 set-up on
         /// `--mesh` with `--particles`): the case `--case` of this sweep file, on each path.
         #[arg(long, requires = "case")]

@@ -34,10 +34,25 @@ pub(super) fn bench(command: Command) -> anyhow::Result<ExitCode> {
             use crate::bench::MovingPath;
             use crate::fem::substructure::Factorization;
             use crate::solver::ale::AleExtent;
+            let study = match (sweep, case) {
+                (Some(file), Some(id)) => match StudyCase::load(&file, &id, db.as_deref()) {
+                    Ok(s) => Some(s),
+                    Err(e) => {
+                        eprintln!("error: {e}");
+                        return Ok(ExitCode::from(2));
+                    }
+                },
+                _ => None,
+            };
+            // a study's case on its own ALE extent unless `--ale` says otherwise
+            let own = study
+                .as_ref()
+                .map_or(AleExtent::Whole, |s| s.spec.numerics.ale_extent);
             let extents: &[AleExtent] = match ale {
-                AleArg::Both => &[AleExtent::Ring, AleExtent::Whole],
-                AleArg::Ring => &[AleExtent::Ring],
-                AleArg::Whole => &[AleExtent::Whole],
+                Some(AleArg::Both) => &[AleExtent::Ring, AleExtent::Whole],
+                Some(AleArg::Ring) => &[AleExtent::Ring],
+                Some(AleArg::Whole) => &[AleExtent::Whole],
+                None => std::slice::from_ref(&own),
             };
             let path = |factorization, ale| MovingPath { factorization, ale };
             let paths: Vec<MovingPath> = match factorization {
@@ -65,14 +80,7 @@ pub(super) fn bench(command: Command) -> anyhow::Result<ExitCode> {
                     closing.push(crate::bench::step_line(new, old));
                 }
             };
-            if let (Some(file), Some(id)) = (sweep, case) {
-                let study = match StudyCase::load(&file, &id, db.as_deref()) {
-                    Ok(s) => s,
-                    Err(e) => {
-                        eprintln!("error: {e}");
-                        return Ok(ExitCode::from(2));
-                    }
-                };
+            if let Some(study) = study {
                 if let Some(from) = &study.from {
                     println!("{from}");
                 }
@@ -186,10 +194,12 @@ impl StudyCase {
         let cases = crate::sweep::expand(&spec).map_err(|e| e.to_string())?;
         let only = super::sweep_cmds::select_cases(&cases, &[id.to_string()])
             .map_err(|e| format!("{}: {e}", file.display()))?;
+        // (one id given: `select_cases` names exactly one case or refuses)
+        let only = only.unwrap_or_default();
         let c = cases
             .into_iter()
-            .find(|c| only.as_ref().is_some_and(|o| o.contains(&c.id)))
-            .ok_or_else(|| format!("{}: --case `{id}`: no such case", file.display()))?;
+            .find(|c| only.contains(&c.id))
+            .expect("select_cases matched one case");
         let (state, from) = match db {
             None => (None, None),
             Some(db) => {
