@@ -147,12 +147,19 @@ impl Stokes {
     }
 
     /// The inert dofs (per dof): those whose every element lies inside a particle (or beyond a
-    /// free surface), [`INERT_DEPTH`] rings of elements or more from any element that is not.
+    /// free surface), also where the particle's stretched reach takes it
+    /// ([`Reach::stays_inside`](super::reach::Reach::stays_inside)), [`INERT_DEPTH`] rings of
+    /// elements or more from any element that is not.
     fn inert_dofs(&self) -> Vec<bool> {
+        // inside a particle now and wherever its reach's stretch takes it
         let outside: Vec<bool> = self
             .cuts
             .iter()
-            .map(|c| !matches!(c, ElementCut::Inside))
+            .enumerate()
+            .map(|(e, c)| {
+                !matches!(c, ElementCut::Inside)
+                    || !self.reach.stays_inside(&self.mesh, &self.particles, e)
+            })
             .collect();
         let near = dilate(&outside, self.mesh.dims(), self.mesh.periodic, INERT_DEPTH);
         let lay = self.layout;

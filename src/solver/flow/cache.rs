@@ -7,7 +7,7 @@ use std::collections::HashMap;
 
 use super::dofs::{element_dofs, MAX_EL_DOFS};
 use super::kernels::{fluid_element_matrix, shape_table};
-use super::pattern::Reach;
+use super::reach::Reach;
 use super::Stokes;
 use crate::fem::element::RuleMaps;
 use crate::fem::quadrature::QuadRule;

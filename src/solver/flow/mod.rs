@@ -29,6 +29,7 @@ mod forces;
 mod kernels;
 mod multipliers;
 mod pattern;
+mod reach;
 #[cfg(test)]
 mod tests;
 
@@ -43,7 +44,8 @@ use crate::mesh::dilate;
 use cache::{ElementPositions, FluidBase, GhostPatch, RectangleMatrices, MOVING_MARGIN};
 use constraints::{push_condition_values, VelocityCondition};
 use multipliers::{links_cover, ring_links, rings_for, RingLink};
-use pattern::{build_pattern, reach_for, Reach};
+use pattern::build_pattern;
+use reach::{reach_for, Reach};
 
 use crate::fem::element::{q1, q2_map};
 use crate::fem::linsolve::{DirectSolver, Pivoting, ProbeVerdict, SolveError, SolverKind};
@@ -308,7 +310,7 @@ impl Stokes {
             n_particles: particles.len(),
             n_ring_nodes: rings.iter().map(|r| r.nodes).sum(),
         };
-        let reach = reach_for(&mesh, &particles, &cuts);
+        let reach = reach_for(&mesh, &particles, &cuts, vec![[0.0; 2]; particles.len()]);
         let links = ring_links(&rings, &cuts);
         let matrix = build_pattern(&mesh, &layout, &reach, &links, params.lubrication.is_some());
         let n = layout.n_dofs();
@@ -375,8 +377,12 @@ impl Stokes {
         self.particles = particles;
         self.cuts = cuts;
         let links = ring_links(&self.rings, &self.cuts);
-        if !self.reach.covers(&self.cuts) || !links_cover(&self.links, &links) {
-            self.reach = reach_for(&self.mesh, &self.particles, &self.cuts);
+        self.reach.moved();
+        if !self.reach.covers(&self.cuts)
+            || self.reach.outlived(&self.particles)
+            || !links_cover(&self.links, &links)
+        {
+            self.reach = self.reach.renewed(&self.mesh, &self.particles, &self.cuts);
             self.links = links;
             self.matrix = build_pattern(
                 &self.mesh,

@@ -1,110 +1,12 @@
-//! Sparsity pattern of the flow matrix, and each particle's reach: the elements coupled to its
-//! rigid-body unknowns, so that the pattern and its symbolic factorization outlive small moves.
+//! Sparsity pattern of the flow matrix: every element's couplings, those of each particle's
+//! [`Reach`] with its rigid-body unknowns, the ghost-penalty patches next to the reach.
 
 use super::dofs::{element_dofs, Layout, MAX_EL_DOFS};
 use super::multipliers::{link_dofs, RingLink};
+use super::reach::Reach;
 use crate::fem::sparse::{PatternBuilder, SparseMatrix};
-use crate::mesh::dilate;
-use crate::mesh::{bounding_box, Mesh, Shape};
+use crate::mesh::Mesh;
 use crate::solver::ghost::faces_where;
-use crate::solver::rigid::{ElementCut, Particle};
-
-/// How far beyond its boundary, in sizes of the element concerned, a particle's rigid-body
-/// unknowns are coupled in the matrix pattern. A particle can move about this far before an
-/// element it cuts lies outside the coupled set and the pattern and its symbolic factorization
-/// must be rebuilt; the unused couplings store zeros.
-const RIGID_REACH: f64 = 2.0;
-
-/// Per particle, the elements whose velocity and pressure the pattern couples to its rigid-body
-/// unknowns: bounding box within the radius plus [`RIGID_REACH`] element sizes of the centre
-/// (nearest periodic image on a periodic rectangle).
-fn rigid_reach(mesh: &Mesh, particles: &[Particle]) -> Vec<Vec<bool>> {
-    let period = (mesh.periodic && mesh.shape == Shape::Rectangle)
-        .then(|| mesh.ax.vertices[mesh.ax.len()] - mesh.ax.vertices[0]);
-    particles
-        .iter()
-        .map(|p| {
-            mesh.element_coords
-                .iter()
-                .map(|xe| {
-                    let (lo, hi) = bounding_box(xe);
-                    let size = (hi[0] - lo[0]).max(hi[1] - lo[1]);
-                    let mut c = p.center;
-                    if let Some(l) = period {
-                        let mid = 0.5 * (lo[0] + hi[0]);
-                        c[0] -= l * ((c[0] - mid) / l).round();
-                    }
-                    let q = [c[0].clamp(lo[0], hi[0]), c[1].clamp(lo[1], hi[1])];
-                    (q[0] - c[0]).hypot(q[1] - c[1]) <= p.radius + RIGID_REACH * size
-                })
-                .collect()
-        })
-        .collect()
-}
-
-/// How far beyond the elements a free surface cuts (cut elements without particle pieces) the
-/// pattern couples the ghost-penalty patches and the matrix is assembled every step, in elements:
-/// the surface can move about this far before the pattern is rebuilt.
-const SURFACE_REACH: usize = 2;
-
-/// Where the flow matrix may change while a pattern lasts: each particle's reach (the elements
-/// coupled to its rigid-body unknowns) and the band around a free surface. Elements outside it
-/// are fluid and assembled from the cached base; the ghost-penalty patches of faces next to it
-/// are in the pattern.
-#[derive(Debug, Clone)]
-pub(super) struct Reach {
-    /// Per particle, the elements coupled to its rigid-body unknowns.
-    pub particles: Vec<Vec<bool>>,
-    /// The elements within [`SURFACE_REACH`] of an element cut by a free surface.
-    pub surface: Vec<bool>,
-}
-
-impl Reach {
-    /// Whether element `e` may be cut while the pattern lasts.
-    pub fn contains(&self, e: usize) -> bool {
-        self.surface[e] || self.particles.iter().any(|r| r[e])
-    }
-
-    /// Whether every cut element lies in the reach of what cuts it.
-    pub fn covers(&self, cuts: &[ElementCut]) -> bool {
-        cuts.iter().enumerate().all(|(e, c)| match c {
-            ElementCut::Cut(c) if c.particles.is_empty() => self.surface[e],
-            ElementCut::Cut(c) => c.particles.iter().all(|pc| self.particles[pc.particle][e]),
-            _ => true,
-        })
-    }
-
-    /// Whether the pattern couples the two elements of the face between `e` and `o` for the
-    /// ghost penalty: faces next to an element in the reach (only those can be cut while the
-    /// pattern lasts). The pattern and the nested-dissection ordering must agree on this.
-    pub fn patched_face(&self, e: usize, o: usize) -> bool {
-        self.contains(e) || self.contains(o)
-    }
-}
-
-/// The [`Reach`] of the particles and surface cuts: [`rigid_reach`] of the particles, or every
-/// element for every particle if that does not cover `cuts` (cuts not of these positions: a
-/// caller's choice); the elements `cuts` has cut by a free surface, widened by
-/// [`SURFACE_REACH`].
-pub(super) fn reach_for(mesh: &Mesh, particles: &[Particle], cuts: &[ElementCut]) -> Reach {
-    let surface_cut: Vec<bool> = cuts
-        .iter()
-        .map(|c| matches!(c, ElementCut::Cut(c) if c.particles.is_empty()))
-        .collect();
-    let surface = dilate(&surface_cut, mesh.dims(), mesh.periodic, SURFACE_REACH);
-    let reach = Reach {
-        particles: rigid_reach(mesh, particles),
-        surface,
-    };
-    if reach.covers(cuts) {
-        reach
-    } else {
-        Reach {
-            particles: vec![vec![true; mesh.n_elements()]; particles.len()],
-            ..reach
-        }
-    }
-}
 
 /// The sparsity pattern of the flow matrix: every element (also those inside particles, which
 /// store zeros next to identity rows, so that a particle crossing the mesh does not change the

@@ -353,3 +353,68 @@ fn a_band_whose_interface_is_too_large_gives_way_to_the_whole_matrix() {
     solve_at(&mut one);
     assert_eq!((one.placements, one.band_declines), (1, 0));
 }
+
+#[test]
+fn the_reach_stretches_along_a_drift_and_shrinks_when_the_drift_stops() {
+    // 64×16 elements of h = 1/16, a particle of 3.2 elements' radius drifting by 0.4 elements
+    // per move: a disc reach (two elements beyond the radius) is outgrown every 5–7 moves
+    let mesh = Mesh::rectangle(
+        Axis::uniform(-2.0, 2.0, 64),
+        Axis::uniform(-0.5, 0.5, 16),
+        true,
+    );
+    let at = |x: f64| {
+        let p = vec![Particle {
+            center: [x, 0.05],
+            radius: 0.2,
+            motion: Motion::Free,
+        }];
+        let cuts = compute_cuts(&mesh, &p, Some(period(&mesh)), CutOptions::default()).unwrap();
+        (p, cuts)
+    };
+    let (p, cuts) = at(-1.0);
+    let mut band = sheared(&mesh, p, cuts, FlowFactorization::Band);
+    solve_at(&mut band);
+    let mut x = -1.0;
+    for k in 1..=48 {
+        x += 0.025;
+        let (p, cuts) = at(x);
+        band.set_particles(p, cuts);
+        let a = solve_at(&mut band);
+        if k % 12 == 0 {
+            let (p, cuts) = at(x);
+            let b = solve_at(&mut sheared(&mesh, p, cuts, FlowFactorization::Whole));
+            let d = rel_diff(&a, &b);
+            assert!(d <= BAND_VS_WHOLE_TOL, "move {k}: {d:.2e}");
+        }
+    }
+    // the first pattern is a disc; from the second on the reach reaches one radius ahead, so a
+    // pattern lasts 13–16 moves
+    let drifting = band.pattern_rebuilds;
+    eprintln!(
+        "48 moves: {drifting} pattern rebuilds, {} placements, ahead {:?}",
+        band.placements, band.reach.ahead
+    );
+    assert!((3..=4).contains(&drifting), "{drifting} rebuilds");
+    assert!((band.reach.ahead[0][0] - 0.2).abs() < 1e-12 && band.reach.ahead[0][1] == 0.0);
+    // no placement beyond the patterns': the stretch's elements are not taken as inert
+    assert_eq!(band.placements, drifting + 1);
+    // the particle stops: within 2 × 4 × 16 moves the stretched reach is renewed (twice if the
+    // first window still held a quarter radius of the drift), and then kept
+    let still = |band: &mut Stokes| {
+        for _ in 0..130 {
+            let (p, cuts) = at(x);
+            band.set_particles(p, cuts);
+        }
+    };
+    still(&mut band);
+    let renewed = band.pattern_rebuilds - drifting;
+    assert!((1..=2).contains(&renewed), "{renewed} renewals");
+    assert_eq!(band.reach.ahead[0], [0.0; 2]);
+    still(&mut band);
+    assert_eq!(band.pattern_rebuilds, drifting + renewed);
+    let a = solve_at(&mut band);
+    let (p, cuts) = at(x);
+    let b = solve_at(&mut sheared(&mesh, p, cuts, FlowFactorization::Whole));
+    assert!(rel_diff(&a, &b) <= BAND_VS_WHOLE_TOL);
+}
