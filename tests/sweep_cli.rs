@@ -221,6 +221,8 @@ fn the_estimate_reads_what_the_database_has_done() {
         .count();
     assert_eq!(done, 2, "{after}");
     assert!(after.contains(", 0.0 of them not done yet"), "{after}");
+    assert!(before.contains("expected: no finished case"), "{before}");
+    assert!(after.contains("expected:"), "{after}");
 }
 
 /// `--case`: only the selected cases run (by a prefix of the id), the sweep's others stay

@@ -2,6 +2,9 @@
 //! elements, steps and step cost and the core-hours they take at a measured rate, the total, and
 //! what is left of it when the sweep's database already has finished cases.
 //!
+//! Beside the bound, an expectation (`core-h ~`) from the database's finished cases
+//! ([`Expectation`]): their wall time in all over the work of their step bounds.
+//!
 //! The rate is the one the cluster path asks SLURM for ([`Rate`]): the slowest finished case of
 //! the sweep's database (seconds per element and step, every rejected step and resumption
 //! included) when there is one, else the benchmark of docs/performance.md. The steps are an upper
@@ -17,7 +20,9 @@ use std::path::Path;
 use crate::config::{CaseSpec, PlannedCase};
 use crate::simulate::undisturbed::{prelude_key, UNDISTURBED_T_MAX};
 use crate::store::{Format, Store, Table};
-use crate::sweep::slurm::estimate::{finished_cases, prelude_steps, steps_seconds, Rate};
+use crate::sweep::slurm::estimate::{
+    finished_cases, prelude_steps, steps_seconds, Expectation, Rate,
+};
 
 /// What the database already knows: each case's status and the finished cases' timings.
 struct Known {
@@ -51,6 +56,7 @@ pub(super) fn print_estimate(
 ) -> anyhow::Result<()> {
     let known = known(db)?;
     let rate = Rate::from_finished(&known.finished);
+    let expect = Expectation::from_finished(&known.finished);
     let mut t = Table {
         columns: [
             "index",
@@ -60,6 +66,7 @@ pub(super) fn print_estimate(
             "steps ≤",
             "step cost",
             "core-h ≤",
+            "core-h ~",
             "status",
         ]
         .map(String::from)
@@ -67,6 +74,7 @@ pub(super) fn print_estimate(
         rows: Vec::new(),
     };
     let (mut total, mut left) = (0.0, 0.0);
+    let (mut expected, mut expected_left) = (0.0, 0.0);
     // an extrusion's undisturbed prelude is stepped once per undisturbed flow (the others take it)
     let mut preludes = std::collections::BTreeSet::new();
     for c in cases {
@@ -81,9 +89,12 @@ pub(super) fn print_estimate(
             .get(&c.id)
             .cloned()
             .unwrap_or_else(|| "not run".into());
+        let likely = expect.map(|e| e.seconds_of(&c.spec, steps) / 3600.0);
         total += hours;
+        expected += likely.unwrap_or(0.0);
         if status != "done" {
             left += hours;
+            expected_left += likely.unwrap_or(0.0);
         }
         t.rows.push(vec![
             c.index.into(),
@@ -93,6 +104,7 @@ pub(super) fn print_estimate(
             (steps as i64).into(),
             c.spec.step_cost().into(),
             format!("{hours:.2}").into(),
+            likely.map_or("–".into(), |h| format!("{h:.2}")).into(),
             status.into(),
         ]);
     }
@@ -105,6 +117,18 @@ pub(super) fn print_estimate(
          undisturbed prelude to t = {UNDISTURBED_T_MAX} once per undisturbed flow)",
         cases.len()
     )?;
+    match expect {
+        Some(e) => writeln!(
+            out,
+            "expected: about {expected:.1} core-hours, {expected_left:.1} of them not done yet \
+             ({})",
+            e.source()
+        )?,
+        None => writeln!(
+            out,
+            "expected: no finished case in the database to take the expectation from"
+        )?,
+    }
     Ok(())
 }
 
@@ -160,6 +184,7 @@ mod tests {
             "{text}"
         );
         assert!(text.contains("not run"), "{text}");
+        assert!(text.contains("expected: no finished case"), "{text}");
         assert!(!db.exists(), "an estimate never creates the database");
     }
 

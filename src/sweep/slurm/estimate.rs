@@ -72,6 +72,64 @@ impl Rate {
     }
 }
 
+/// What finished cases made of their bound, for an expected cost beside [`Rate`]'s upper one:
+/// their wall time in all over the work of their step bounds in all ([`case_steps_bound`] ×
+/// elements × step cost), seconds per element and bound step. It folds in everything the bound
+/// leaves out or overstates (early stops, adaptive steps above the initial Δt, rejected steps,
+/// resumptions, the machine's load), and it gives the finished cases' own total back exactly;
+/// a sum rather than a median, because a study's cost is its long cases'.
+#[derive(Debug, Clone, Copy, PartialEq)]
+pub struct Expectation {
+    /// Seconds per element and bound step.
+    pub seconds: f64,
+    /// The finished cases' wall time in all, in seconds.
+    pub wall: f64,
+    /// How many finished cases were measured.
+    pub cases: usize,
+}
+
+impl Expectation {
+    /// The expectation from finished cases `(case, wall seconds, steps)`; `None` without any.
+    pub fn from_finished(finished: &[(CaseSpec, f64, u64)]) -> Option<Expectation> {
+        let (mut wall, mut work, mut cases) = (0.0, 0.0, 0);
+        for (c, w, steps) in finished {
+            let bound = case_steps_bound(c) * c.mesh_elements() * c.step_cost();
+            if *steps > 0 && *w > 0.0 && bound > 0.0 {
+                wall += w;
+                work += bound;
+                cases += 1;
+            }
+        }
+        (cases > 0).then(|| Expectation {
+            seconds: wall / work,
+            wall,
+            cases,
+        })
+    }
+
+    /// Expected core-seconds of a case whose step bound is `steps`.
+    pub fn seconds_of(&self, spec: &CaseSpec, steps: f64) -> f64 {
+        steps * spec.mesh_elements() * spec.step_cost() * self.seconds
+    }
+
+    /// Where the number comes from.
+    pub fn source(&self) -> String {
+        format!(
+            "{:.1} µs per element and bound step: the {} finished case(s) of the database, \
+             {:.1} core-hours, over their step bounds",
+            self.seconds * 1e6,
+            self.cases,
+            self.wall / 3600.0
+        )
+    }
+}
+
+/// A case's step bound: its steps at the initial Δt to t_end and an extrusion's undisturbed
+/// prelude ([`prelude_steps`]).
+pub fn case_steps_bound(spec: &CaseSpec) -> f64 {
+    spec.steps() + prelude_steps(spec)
+}
+
 /// The finished cases of `store` that took steps, as (case, wall seconds, steps): what
 /// [`Rate::from_finished`] measures (a case whose stored JSON no longer parses is left out).
 ///
@@ -101,7 +159,7 @@ pub fn memory_mb(cases: &[&PlannedCase]) -> u64 {
 /// them even with an early stop, and an extrusion's undisturbed prelude: [`prelude_steps`]) ×
 /// elements × step cost × `rate`.
 pub fn case_seconds(spec: &CaseSpec, rate: &Rate) -> f64 {
-    steps_seconds(spec, spec.steps() + prelude_steps(spec), rate)
+    steps_seconds(spec, case_steps_bound(spec), rate)
 }
 
 /// Core-seconds of `steps` steps of case `spec` at `rate`.
@@ -187,5 +245,26 @@ mod tests {
         );
         assert!(measured.source().contains("1 finished case"));
         assert_eq!(Rate::from_finished(&[]), Rate::Benchmark);
+    }
+
+    /// The expectation is the finished cases' wall time in all over their bounds' work: three
+    /// cases of 1000 bound steps on 10⁴ elements that took 8, 2 and 20 s expect 10 s per such
+    /// case; none without finished cases.
+    #[test]
+    fn the_expectation_is_the_finished_cases_total_over_their_bounds() {
+        let c = case([200, 50], 20.0, 0.1);
+        let finished = [
+            (c.clone(), 8.0, 400),
+            (c.clone(), 2.0, 100),
+            (c.clone(), 20.0, 250),
+        ];
+        let e = Expectation::from_finished(&finished).unwrap();
+        assert!((e.seconds - 1e-6).abs() < 1e-18, "{e:?}");
+        assert_eq!((e.wall, e.cases), (30.0, 3));
+        assert!((e.seconds_of(&c, 1000.0) - 10.0).abs() < 1e-9);
+        assert!(e.source().contains("3 finished case(s)"), "{}", e.source());
+        // the bound takes the slowest rate per step taken: 20 s / (250 × 10⁴)
+        assert_eq!(Rate::from_finished(&finished).seconds(), 8e-6);
+        assert_eq!(Expectation::from_finished(&[]), None);
     }
 }
