@@ -359,6 +359,14 @@ impl Stokes {
         st
     }
 
+    /// [`set_particles`](Self::set_particles) for particles placed rather than moved (a state
+    /// restored into the solver): the jump from the old positions is not taken as the particles'
+    /// drift, along which the reach is stretched.
+    pub fn place_particles(&mut self, particles: Vec<Particle>, cuts: Vec<ElementCut>) {
+        self.reach.forget();
+        self.set_particles(particles, cuts);
+    }
+
     /// Moves the particles (same number, new centres and motions) and cuts: the pattern and the
     /// symbolic factorization are kept while every cut element lies in its particles' reach
     /// (about two element sizes of travel) and rebuilt around the new positions

@@ -87,6 +87,13 @@ impl Reach {
         self.age += 1;
     }
 
+    /// Forgets where the particles were: the next move is a jump (a state restored into the
+    /// solver), not a drift, and the reach renewed for it is not stretched.
+    pub fn forget(&mut self) {
+        self.centres.clear();
+        self.age = 0;
+    }
+
     /// Whether the reach was stretched for a drift that has slowed down: every
     /// 4 × [`LASTING_STEPS`] moves, whether the drift over them would make a stretch of more
     /// than a quarter radius less than half as long. Renewing the reach (a new pattern and

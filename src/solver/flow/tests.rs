@@ -417,4 +417,13 @@ fn the_reach_stretches_along_a_drift_and_shrinks_when_the_drift_stops() {
     let (p, cuts) = at(x);
     let b = solve_at(&mut sheared(&mesh, p, cuts, FlowFactorization::Whole));
     assert!(rel_diff(&a, &b) <= BAND_VS_WHOLE_TOL);
+    // a particle placed (a restored state) jumps: no drift, no stretch
+    for _ in 0..3 {
+        let (p, cuts) = at(x);
+        band.set_particles(p, cuts);
+    }
+    let (p, cuts) = at(x + 0.5);
+    band.place_particles(p, cuts);
+    assert_eq!(band.pattern_rebuilds, drifting + renewed + 1);
+    assert_eq!(band.reach.ahead[0], [0.0; 2]);
 }

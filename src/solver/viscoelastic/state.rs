@@ -153,7 +153,7 @@ impl ViscoelasticFlow {
         if np > 0 {
             self.transport.set_cuts(&self.mesh, cuts.clone());
             self.projection.set_cuts(&self.mesh, cuts.clone());
-            self.stokes.set_particles(particles, cuts.clone());
+            self.stokes.place_particles(particles, cuts.clone());
         }
         self.cuts = cuts;
         self.history = state.history;
