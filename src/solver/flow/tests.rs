@@ -78,9 +78,14 @@ const FRESH_BUILD_TOL: f64 = 1e-10;
 /// The channel of the moving-mesh tests, 32×16: wide enough that the moving-element mask
 /// (the changed columns and rows widened by [`MOVING_MARGIN`]) leaves elements in the base.
 fn long_channel() -> Mesh {
+    periodic_channel(32, 16)
+}
+
+/// The periodic channel [−2, 2] × [−½, ½] with `nx` × `ny` elements.
+fn periodic_channel(nx: usize, ny: usize) -> Mesh {
     Mesh::rectangle(
-        Axis::uniform(-2.0, 2.0, 32),
-        Axis::uniform(-0.5, 0.5, 16),
+        Axis::uniform(-2.0, 2.0, nx),
+        Axis::uniform(-0.5, 0.5, ny),
         true,
     )
 }
@@ -281,11 +286,7 @@ fn moved_small(st: &mut Stokes, center: [f64; 2]) {
 #[test]
 fn the_band_solver_solves_as_the_whole_factorization() {
     // 64×16 elements of h = 1/16: the band around the particle is about 13 % of the channel
-    let mesh = Mesh::rectangle(
-        Axis::uniform(-2.0, 2.0, 64),
-        Axis::uniform(-0.5, 0.5, 16),
-        true,
-    );
+    let mesh = periodic_channel(64, 16);
     let c = [0.013, 0.051];
     let mut band = fresh_small(&mesh, c, FlowFactorization::Band);
     let mut whole = fresh_small(&mesh, c, FlowFactorization::Whole);
@@ -324,11 +325,7 @@ fn row_of_particles(mesh: &Mesh, dx: f64) -> (Vec<Particle>, Vec<ElementCut>) {
 fn a_band_whose_interface_is_too_large_gives_way_to_the_whole_matrix() {
     // 96×24, n ≈ 21 200 dofs: the limit is 7.5 √n ≈ 1090 interface dofs; one particle's band
     // boundary has 280, six have 1590
-    let mesh = Mesh::rectangle(
-        Axis::uniform(-2.0, 2.0, 96),
-        Axis::uniform(-0.5, 0.5, 24),
-        true,
-    );
+    let mesh = periodic_channel(96, 24);
     let setup = |factorization| {
         let (p, cuts) = row_of_particles(&mesh, 0.0);
         sheared(&mesh, p, cuts, factorization)
@@ -358,11 +355,7 @@ fn a_band_whose_interface_is_too_large_gives_way_to_the_whole_matrix() {
 fn the_reach_stretches_along_a_drift_and_shrinks_when_the_drift_stops() {
     // 64×16 elements of h = 1/16, a particle of 3.2 elements' radius drifting by 0.4 elements
     // per move: a disc reach (two elements beyond the radius) is outgrown every 5–7 moves
-    let mesh = Mesh::rectangle(
-        Axis::uniform(-2.0, 2.0, 64),
-        Axis::uniform(-0.5, 0.5, 16),
-        true,
-    );
+    let mesh = periodic_channel(64, 16);
     let at = |x: f64| {
         let p = vec![Particle {
             center: [x, 0.05],
