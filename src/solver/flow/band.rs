@@ -28,13 +28,19 @@ const BAND_MARGIN: usize = 1;
 /// How deep inside a particle, in rings of elements, an element lies whose dofs M takes as
 /// inert: their couplings, zeros that the pattern stores so that a moving particle does not
 /// change it, are left out of M's pattern ([`Substructured::with_interface`]; it checks at every
-/// step that they are still zero, and a new placement follows when one is not). A particle
-/// travels two to three and a half elements (the pattern's rigid reach of two elements, plus up
-/// to an element's diagonal) before its pattern is rebuilt, which makes a new placement anyway;
-/// three rings outlast that mostly. a/12, three particles (300×78 graded, t* ≤ 0.6, 18 steps):
-/// M's factorization median 0.189 s with no inert dofs, 0.146 s at three rings (407 000 entries
-/// left out), 0.123 s at two, 0.107 s at one — but at one ring 6 placements instead of 4.
-const INERT_DEPTH: usize = 3;
+/// step that they are still zero, and a new placement follows when one is not). Depth is taken
+/// in the particle at its centre and at the end of its reach's stretch
+/// ([`Reach::stays_inside`](super::reach::Reach::stays_inside)), so that a fast particle's inert
+/// elements stay inside while its stretched pattern lasts; a slow one travels about two
+/// elements (the pattern's rigid reach) before its pattern is rebuilt, so at two rings a
+/// placement comes at most a little before the rebuild's own. a/12, three particles (300×78
+/// graded, t* ≤ 0.6, 18 steps, before the stretch): M's factorization median 0.189 s with no
+/// inert dofs, 0.146 s at three rings, 0.123 s at two, 0.107 s at one — but at one ring 6
+/// placements instead of 4. With the stretch (2026-12-07, `xpflow bench moving --sweep
+/// sweeps/beta_near_contact.toml`, 60 steps): two rings against three, M 0.220 → 0.198 s from
+/// rest at a/12 and 0.230 → 0.206 s on the β = 0.3 a/16 string forming, the same placements
+/// (5 and 2), and the Couette case's (one particle) unchanged.
+const INERT_DEPTH: usize = 2;
 
 /// Largest fraction of the elements in the band for which substructuring pays (beyond it the
 /// band's own factorization costs about what the whole one does, and the far field's is extra):
