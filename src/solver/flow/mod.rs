@@ -387,7 +387,7 @@ impl Stokes {
         let links = ring_links(&self.rings, &self.cuts);
         self.reach.moved();
         if !self.reach.covers(&self.cuts)
-            || self.reach.outlived(&self.particles)
+            || self.reach.outlived(&self.mesh, &self.particles)
             || !links_cover(&self.links, &links)
         {
             self.reach = self.reach.renewed(&self.mesh, &self.particles, &self.cuts);

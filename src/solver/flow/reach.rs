@@ -3,7 +3,8 @@
 //! particle's moves; and the band around a free surface.
 //!
 //! A reach is a disc of the particle's radius plus [`RIGID_REACH`] element sizes around its
-//! centre, stretched along the particle's drift: where a particle moved fast through the mesh
+//! centre, stretched along the particle's drift across the mesh (in element indices, so that a
+//! mesh that follows its particle sees none): where a particle moved fast through the mesh
 //! while the last pattern lasted (a particle orbiting in a Couette cell's frame, one carried
 //! through a die, particles approaching from rest), the next reach extends ahead of it by what
 //! it travels in [`LASTING_STEPS`] steps at that rate (at most [`MAX_AHEAD_RADII`] radii), so
@@ -11,6 +12,7 @@
 //! of travel a disc allows. A slow particle (a string) keeps its disc. A reach stretched for a
 //! drift that has since slowed down is renewed ([`Reach::outlived`]).
 
+use crate::fem::element::q2_map;
 use crate::mesh::dilate;
 use crate::mesh::{bounding_box, Mesh, Shape};
 use crate::solver::rigid::{ElementCut, Particle};
@@ -51,11 +53,10 @@ pub(super) struct Reach {
     pub surface: Vec<bool>,
     /// Per particle, how far ahead of the centre the reach is stretched (zero: a disc).
     pub ahead: Vec<[f64; 2]>,
-    /// The particles' centres when the reach was made, or when [`Reach::outlived`] last looked
-    /// at their drift: the start of the window the drift is measured over.
-    centres: Vec<[f64; 2]>,
-    /// The x-period of a periodic rectangle (drifts and images are taken modulo it).
-    period: Option<f64>,
+    /// Where the particles' centres lay across the mesh ([`across`]) when the reach was made,
+    /// or when [`Reach::outlived`] last looked at their drift: the start of the window the drift
+    /// is measured over (empty: forgotten).
+    start: Vec<Option<[f64; 2]>>,
     /// Particle moves ([`Reach::moved`]) in the drift's window.
     age: usize,
 }
@@ -90,7 +91,7 @@ impl Reach {
     /// Forgets where the particles were: the next move is a jump (a state restored into the
     /// solver), not a drift, and the reach renewed for it is not stretched.
     pub fn forget(&mut self) {
-        self.centres.clear();
+        self.start.clear();
         self.age = 0;
     }
 
@@ -98,17 +99,17 @@ impl Reach {
     /// 4 × [`LASTING_STEPS`] moves, whether the drift over them would make a stretch of more
     /// than a quarter radius less than half as long. Renewing the reach (a new pattern and
     /// placement) shrinks the band that M factors every step. Starts the next window.
-    pub fn outlived(&mut self, particles: &[Particle]) -> bool {
-        if (self.age as f64) < 4.0 * LASTING_STEPS || self.centres.len() != particles.len() {
+    pub fn outlived(&mut self, mesh: &Mesh, particles: &[Particle]) -> bool {
+        if (self.age as f64) < 4.0 * LASTING_STEPS || self.start.len() != particles.len() {
             return false;
         }
-        let now = self.drifts(particles);
+        let now = self.drifts(mesh, particles);
         let slowed = particles.iter().enumerate().any(|(i, p)| {
             let (was, will) = (norm(self.ahead[i]), norm(now[i]));
             was > 0.25 * p.radius && will < 0.5 * was
         });
         if !slowed {
-            self.centres = particles.iter().map(|p| p.center).collect();
+            self.start = starts(mesh, particles);
             self.age = 0;
         }
         slowed
@@ -118,27 +119,36 @@ impl Reach {
     /// this reach's window (since it was made, or over the last 4 × [`LASTING_STEPS`] moves;
     /// [`reach_for`]).
     pub fn renewed(&self, mesh: &Mesh, particles: &[Particle], cuts: &[ElementCut]) -> Reach {
-        let ahead = if self.centres.len() == particles.len() {
-            self.drifts(particles)
+        let ahead = if self.start.len() == particles.len() {
+            self.drifts(mesh, particles)
         } else {
             vec![[0.0; 2]; particles.len()]
         };
         reach_for(mesh, particles, cuts, ahead)
     }
 
-    /// Per particle, its displacement over the window, per move, times
-    /// [`LASTING_STEPS`], at most [`MAX_AHEAD_RADII`] radii long.
-    fn drifts(&self, particles: &[Particle]) -> Vec<[f64; 2]> {
+    /// Per particle, its displacement across the mesh over the window (in element indices, taken
+    /// to a length by the element map at its centre now), per move, times [`LASTING_STEPS`], at
+    /// most [`MAX_AHEAD_RADII`] radii long; zero where it was or is outside the mesh.
+    fn drifts(&self, mesh: &Mesh, particles: &[Particle]) -> Vec<[f64; 2]> {
         let per_move = LASTING_STEPS / self.age.max(1) as f64;
+        let nx = mesh.dims().0 as f64;
         particles
             .iter()
-            .zip(&self.centres)
-            .map(|(p, c0)| {
-                let mut d = [p.center[0] - c0[0], p.center[1] - c0[1]];
-                if let Some(l) = self.period {
-                    d[0] -= l * (d[0] / l).round();
+            .zip(&self.start)
+            .map(|(p, then)| {
+                let (Some(then), Some((now, to_length))) = (then, across(mesh, p.center)) else {
+                    return [0.0; 2];
+                };
+                let mut d = [now[0] - then[0], now[1] - then[1]];
+                if mesh.periodic {
+                    d[0] -= nx * (d[0] / nx).round();
                 }
-                let d = [d[0] * per_move, d[1] * per_move];
+                let j = to_length;
+                let d = [
+                    per_move * (j[0][0] * d[0] + j[0][1] * d[1]),
+                    per_move * (j[1][0] * d[0] + j[1][1] * d[1]),
+                ];
                 let (len, max) = (norm(d), MAX_AHEAD_RADII * p.radius);
                 if len > max {
                     [d[0] * max / len, d[1] * max / len]
@@ -157,7 +167,7 @@ impl Reach {
         let (lo, hi) = bounding_box(xe);
         let mid = [0.5 * (lo[0] + hi[0]), 0.5 * (lo[1] + hi[1])];
         particles.iter().zip(&self.ahead).all(|(p, a)| {
-            let c = image_near(p.center, mid[0], self.period);
+            let c = image_near(p.center, mid[0], period_of(mesh));
             if *a == [0.0; 2] || (mid[0] - c[0]).hypot(mid[1] - c[1]) > p.radius {
                 return true;
             }
@@ -166,6 +176,28 @@ impl Reach {
                 .all(|x| (x[0] - moved[0]).hypot(x[1] - moved[1]) <= p.radius)
         })
     }
+}
+
+/// Where `c` lies across the mesh, in element indices, (e_x + (ξ_x + 1)/2, e_y + (ξ_y + 1)/2),
+/// and the map from those indices to lengths there (the element map's Jacobian times two);
+/// `None` outside the mesh.
+fn across(mesh: &Mesh, c: [f64; 2]) -> Option<([f64; 2], [[f64; 2]; 2])> {
+    let (e, xi) = mesh.locate(c)?;
+    let nx = mesh.dims().0;
+    let at = [
+        (e % nx) as f64 + 0.5 * (xi[0] + 1.0),
+        (e / nx) as f64 + 0.5 * (xi[1] + 1.0),
+    ];
+    let (_, j, _) = q2_map(&mesh.element_coords[e], xi);
+    Some((at, j.map(|row| row.map(|v| 2.0 * v))))
+}
+
+/// Where each particle lies across the mesh ([`across`]).
+fn starts(mesh: &Mesh, particles: &[Particle]) -> Vec<Option<[f64; 2]>> {
+    particles
+        .iter()
+        .map(|p| across(mesh, p.center).map(|(at, _)| at))
+        .collect()
 }
 
 fn norm(v: [f64; 2]) -> f64 {
@@ -253,8 +285,7 @@ pub(super) fn reach_for(
         particles: rigid_reach(mesh, particles, &ahead),
         surface,
         ahead,
-        centres: particles.iter().map(|p| p.center).collect(),
-        period: period_of(mesh),
+        start: starts(mesh, particles),
         age: 0,
     };
     if reach.covers(cuts) {

@@ -389,7 +389,11 @@ fn the_reach_stretches_along_a_drift_and_shrinks_when_the_drift_stops() {
         band.placements, band.reach.ahead
     );
     assert!((3..=4).contains(&drifting), "{drifting} rebuilds");
-    assert!((band.reach.ahead[0][0] - 0.2).abs() < 1e-12 && band.reach.ahead[0][1] == 0.0);
+    let ahead = band.reach.ahead[0];
+    assert!(
+        (ahead[0] - 0.2).abs() < 1e-12 && ahead[1].abs() < 1e-12,
+        "{ahead:?}"
+    );
     // no placement beyond the patterns': the stretch's elements are not taken as inert
     assert_eq!(band.placements, drifting + 1);
     // the particle stops: within 2 × 4 × 16 moves the stretched reach is renewed (twice if the
@@ -419,4 +423,45 @@ fn the_reach_stretches_along_a_drift_and_shrinks_when_the_drift_stops() {
     band.place_particles(p, cuts);
     assert_eq!(band.pattern_rebuilds, drifting + renewed + 1);
     assert_eq!(band.reach.ahead[0], [0.0; 2]);
+}
+
+/// A reach's drift is the particle's motion across the mesh: a particle carried along with a
+/// mesh that follows it (the mesh translated by as much) has none, one on a fixed mesh has its
+/// own (0.025 per move here, 16 moves' worth, capped at its radius).
+#[test]
+fn a_reach_measures_the_drift_across_the_mesh() {
+    use super::reach::reach_for;
+    let shifted = |s: f64| {
+        Mesh::rectangle(
+            Axis::uniform(-2.0 + s, 2.0 + s, 64),
+            Axis::uniform(-0.5, 0.5, 16),
+            true,
+        )
+    };
+    let at = |mesh: &Mesh, x: f64| {
+        let p = vec![Particle {
+            center: [x, 0.05],
+            radius: 0.2,
+            motion: Motion::Free,
+        }];
+        let cuts = compute_cuts(mesh, &p, Some(period(mesh)), CutOptions::default()).unwrap();
+        (p, cuts)
+    };
+    let (mesh0, moved) = (shifted(0.0), shifted(0.1));
+    let (p, cuts) = at(&mesh0, -1.0);
+    let mut reach = reach_for(&mesh0, &p, &cuts, vec![[0.0; 2]]);
+    (0..4).for_each(|_| reach.moved());
+    // carried with the mesh: no drift
+    let (p, cuts) = at(&moved, -0.9);
+    let followed = reach.renewed(&moved, &p, &cuts);
+    assert!(followed.ahead[0][0].abs() < 1e-12, "{:?}", followed.ahead);
+    // on the fixed mesh: 0.1 in 4 moves → 0.4 ahead, capped at the radius
+    let (p, cuts) = at(&mesh0, -0.9);
+    let drifted = reach.renewed(&mesh0, &p, &cuts);
+    assert!(
+        (drifted.ahead[0][0] - 0.2).abs() < 1e-12,
+        "{:?}",
+        drifted.ahead
+    );
+    assert!(drifted.ahead[0][1].abs() < 1e-12, "{:?}", drifted.ahead);
 }
