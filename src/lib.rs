@@ -15,6 +15,7 @@ pub mod geometry;
 pub mod mesh;
 pub mod observe;
 pub mod particles;
+pub mod periodic;
 pub mod rheology;
 pub mod simulate;
 pub mod solver;

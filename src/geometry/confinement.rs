@@ -36,10 +36,7 @@ pub trait Confinement: Send + Sync {
     }
     /// The point moved into the period (identity without one).
     fn wrap(&self, x: [f64; 2]) -> [f64; 2] {
-        match self.period() {
-            Some(l) => [x[0] - l * (x[0] / l).round(), x[1]],
-            None => x,
-        }
+        crate::periodic::nearest_image(x, 0.0, self.period())
     }
 }
 

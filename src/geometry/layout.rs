@@ -40,19 +40,10 @@ pub fn r_star(r1: f64, r2: f64, p: [f64; 2]) -> f64 {
     (p[0].hypot(p[1]) - r1) / (r2 - r1)
 }
 
-/// Signed x-distance from `a` to `b` in a channel periodic in x with length `l`, folded into [−l/2, l/2].
-pub fn periodic_dx(a: f64, b: f64, l: f64) -> f64 {
-    let d = b - a;
-    d - l * (d / l).round()
-}
-
 /// Gap between the surfaces of two particles of radius `radius` (negative when they overlap); with
 /// `period = Some(L)` the x-distance is taken to the nearest periodic image.
 pub fn surface_gap(p: [f64; 2], q: [f64; 2], radius: f64, period: Option<f64>) -> f64 {
-    let dx = match period {
-        Some(l) => periodic_dx(p[0], q[0], l),
-        None => q[0] - p[0],
-    };
+    let dx = crate::periodic::fold(q[0] - p[0], period);
     dx.hypot(q[1] - p[1]) - 2.0 * radius
 }
 

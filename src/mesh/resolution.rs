@@ -47,12 +47,8 @@ pub fn elements_between(mesh: &Mesh, p: [f64; 2], q: [f64; 2]) -> f64 {
         ]
     };
     let (sp, sq) = (index(p), index(q));
-    let mut dx = sq[0] - sp[0];
-    if mesh.periodic {
-        // the short way round the period
-        let n = n_x as f64;
-        dx -= n * (dx / n).round();
-    }
+    // the short way round the period (of n_x elements)
+    let dx = crate::periodic::fold(sq[0] - sp[0], mesh.periodic.then_some(n_x as f64));
     dx.abs() + (sq[1] - sp[1]).abs()
 }
 
@@ -83,10 +79,7 @@ pub fn gaps(mesh: &Mesh, centres: &[[f64; 2]], radii: &[f64]) -> Vec<Gap> {
     let mut all = Vec::with_capacity(centres.len() * (centres.len() + 3) / 2);
     for (i, (&c, &a)) in centres.iter().zip(radii).enumerate() {
         for (j, (&d, &b)) in centres.iter().zip(radii).enumerate().skip(i + 1) {
-            let mut dx = d[0] - c[0];
-            if let Some(l) = period {
-                dx -= l * (dx / l).round();
-            }
+            let dx = crate::periodic::fold(d[0] - c[0], period);
             let dist = dx.hypot(d[1] - c[1]);
             let normal = if dist > 0.0 {
                 [dx / dist, (d[1] - c[1]) / dist]

@@ -31,6 +31,7 @@ use serde_json::{json, Value};
 use super::{ParticleState, Sample};
 use crate::config::{CaseSpec, Geometry, DEFAULT_EXTRUSION_HEIGHT};
 use crate::geometry::layout;
+use crate::periodic;
 
 /// Elements across the narrowest gap below which a decided outcome is flagged as possibly set by
 /// the mesh. The film force of two cylinders is within 1 % of its converged value at one element
@@ -416,7 +417,7 @@ impl Classifier {
         // Pass / repel from the end particles' unwrapped x-distance.
         if let (Some(l), Some(dx0)) = (self.period, self.dx0) {
             for (u, p) in self.unwrapped.iter_mut().zip(ps) {
-                *u += layout::periodic_dx(*u, p.x, l);
+                *u += periodic::fold(p.x - *u, Some(l));
             }
             let dx = self.unwrapped[ps.len() - 1] - self.unwrapped[0];
             self.dx_min = self.dx_min.min(dx);

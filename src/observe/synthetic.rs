@@ -96,7 +96,7 @@ pub fn sample(kind: OutcomeKind, spec: &CaseSpec, step: u64, t: f64) -> Sample {
         .map(|mut p| {
             if let Geometry::ConfinedShear { l, .. } = spec.geometry {
                 // Positions are reported folded into the periodic channel, as a solver would.
-                p.x -= l * (p.x / l).round();
+                p.x = crate::periodic::fold(p.x, Some(l));
             }
             p
         })

@@ -192,10 +192,7 @@ pub fn find_contact(
             }
         }
         for j in i + 1..x.len() {
-            let mut dx = x[j][0] - x[i][0];
-            if let Some(l) = period_x {
-                dx -= l * (dx / l).round();
-            }
+            let dx = crate::periodic::fold(x[j][0] - x[i][0], period_x);
             let dy = x[j][1] - x[i][1];
             let gap = dx.hypot(dy) - radius[i] - radius[j];
             if gap < min_gap {

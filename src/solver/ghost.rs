@@ -179,11 +179,9 @@ pub fn ghost_patch_matrices(
             .max(((c[8][0] - c[0][0]).powi(2) + (c[8][1] - c[0][1]).powi(2)).sqrt() / 2f64.sqrt());
         let centre_other = xs[other][4];
         for (xi, w) in rule.points.iter().zip(&rule.weights) {
-            let (mut x, _, det) = q2_map(xs[own], *xi);
-            if let Some(l) = period {
-                // the other element may lie across the periodic seam
-                x[0] -= l * ((x[0] - centre_other[0]) / l).round();
-            }
+            let (x, _, det) = q2_map(xs[own], *xi);
+            // the other element may lie across the periodic seam
+            let x = crate::periodic::nearest_image(x, centre_other[0], period);
             let guess = [xi[0] - sign * shift[0], xi[1] - sign * shift[1]];
             let xo = invert_q2_map(xs[other], x, guess);
             let wq = w * det;

@@ -103,11 +103,10 @@ impl CircleUnion {
 
     /// Offset x − X reduced to the nearest periodic image (x component in [−L/2, L/2]).
     pub fn offset(&self, x: [f64; 2], center: [f64; 2]) -> [f64; 2] {
-        let mut dx = x[0] - center[0];
-        if let Some(l) = self.period_x {
-            dx -= l * (dx / l).round();
-        }
-        [dx, x[1] - center[1]]
+        [
+            crate::periodic::fold(x[0] - center[0], self.period_x),
+            x[1] - center[1],
+        ]
     }
 
     /// The particle boundary nearest to `x` (nearest periodic image); `None` without particles.
@@ -155,10 +154,7 @@ impl CircleUnion {
         let l = self.period_x.unwrap_or(0.0);
         // Start from the image nearest to x so that ±1 shifts cover every image within reach
         // (the period exceeds the element size in any sensible mesh).
-        let base = match self.period_x {
-            Some(l) => c.center[0] + l * ((x[0] - c.center[0]) / l).round(),
-            None => c.center[0],
-        };
+        let base = crate::periodic::nearest_image(c.center, x[0], self.period_x)[0];
         shifts.iter().filter_map(move |k| {
             let center = [base + k * l, c.center[1]];
             let d = (x[0] - center[0]).hypot(x[1] - center[1]);

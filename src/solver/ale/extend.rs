@@ -38,14 +38,9 @@ where
     let dist = |a: usize, b: usize| {
         let (p, q) = (x(a), x(b));
         // periodic neighbours across the seam: the shorter way round
-        let dx = match mesh.periodic && mesh.shape == Shape::Rectangle {
-            true => {
-                let l = mesh.ax.vertices[nx] - mesh.ax.vertices[0];
-                let d = p[0] - q[0];
-                d - l * (d / l).round()
-            }
-            false => p[0] - q[0],
-        };
+        let period = (mesh.periodic && mesh.shape == Shape::Rectangle)
+            .then(|| mesh.ax.vertices[nx] - mesh.ax.vertices[0]);
+        let dx = crate::periodic::fold(p[0] - q[0], period);
         dx.hypot(p[1] - q[1])
     };
     let mut known = known.to_vec();

@@ -24,10 +24,7 @@ const CURVED_BOUNDARY_TOL: f64 = 1e-4;
 
 /// The periodic image of `x` (shifted by multiples of `period` in x) nearest to `near` in x.
 pub(super) fn nearest_image(x: [f64; 2], near: [f64; 2], period: Option<f64>) -> [f64; 2] {
-    match period {
-        Some(l) => [x[0] - l * ((x[0] - near[0]) / l).round(), x[1]],
-        None => x,
-    }
+    crate::periodic::nearest_image(x, near[0], period)
 }
 
 /// How far the pre-image may lie from `x`, relative to the smallest side of `x`'s element, for

@@ -52,7 +52,7 @@ fn a_ring_map_is_rigid_on_the_patch_harmonic_and_zero_beyond_the_ring() {
     for (v, &k) in mesh.node_of_vertex.iter().enumerate() {
         let x = mesh.nodes[k];
         // across the periodic seam
-        let dx = (x[0] - c[0]) - LENGTH * ((x[0] - c[0]) / LENGTH).round();
+        let dx = crate::periodic::fold(x[0] - c[0], Some(LENGTH));
         let r = dx.hypot(x[1] - c[1]);
         if r < a {
             assert!((d[v][0] - disp[0]).abs() + (d[v][1] - disp[1]).abs() < SOLVE_TOL);

@@ -81,7 +81,7 @@ fn displacement_is_rigid_on_the_patch_zero_on_walls_and_bounded() {
         if x[1].abs() > 0.5 - 1e-12 {
             assert_eq!(d[v], [0.0, 0.0]);
         }
-        let dx = (x[0] - 0.97) - 2.0 * ((x[0] - 0.97) / 2.0).round();
+        let dx = crate::periodic::fold(x[0] - 0.97, Some(2.0));
         if dx.hypot(x[1] - 0.05) < 0.15 {
             assert!((d[v][0] - disp[0]).abs() + (d[v][1] - disp[1]).abs() < SOLVE_TOL);
             on_patch += 1;

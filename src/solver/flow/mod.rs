@@ -16,9 +16,10 @@
 //! Dirichlet velocities are eliminated symmetrically; for enclosed flows the pressure is pinned
 //! at one vertex and shifted to zero mean afterwards.
 //!
-//! Here: [`Stokes`] and its public API (setup, particle and mesh moves, solves); the numbering
-//! of the unknowns, the sparsity pattern, the constraints, the caches kept between steps, the
-//! assembly, the element kernels and the particle forces are in the submodules.
+//! Here: [`Stokes`] and its public API (setup, particle and mesh moves, solves); its parameters,
+//! its solution and what its solves cost, the numbering of the unknowns, the sparsity pattern,
+//! the constraints, the caches kept between steps, the assembly, the element kernels and the
+//! particle forces are in the submodules.
 
 mod assemble;
 mod band;
@@ -28,14 +29,20 @@ mod dofs;
 mod forces;
 mod kernels;
 mod multipliers;
+mod params;
 mod pattern;
 mod reach;
+mod solution;
+mod stats;
 #[cfg(test)]
 mod tests;
 
 pub use crate::fem::substructure::Factorization as FlowFactorization;
 pub use band::{BAND_FRACTION_LIMIT, INTERFACE_LIMIT};
 pub use dofs::Layout;
+pub use params::{StokesParams, FLOW_GHOST_PENALTY};
+pub use solution::{mean_q1, StokesSolution};
+pub use stats::{FlowSolverStats, Timings};
 
 use std::collections::HashMap;
 use std::time::Instant;
@@ -47,141 +54,15 @@ use multipliers::{links_cover, ring_links, rings_for, RingLink};
 use pattern::build_pattern;
 use reach::{reach_for, Reach};
 
-use crate::fem::element::{q1, q2_map};
 use crate::fem::linsolve::{DirectSolver, Pivoting, ProbeVerdict, SolveError, SolverKind};
 use crate::fem::quadrature::{gauss_quad, QuadRule};
 use crate::fem::sparse::SparseMatrix;
 use crate::fem::substructure::Substructured;
 use crate::mesh::Mesh;
-use crate::solver::lubrication::{Film, Lubrication};
+use crate::solver::lubrication::Film;
 use crate::solver::multiplier::{RigidCondition, Ring};
 use crate::solver::polymer_terms::PolymerStress;
-use crate::solver::rigid::{ElementCut, Particle, WeakForm};
-
-/// Physical and numerical parameters of a Stokes solve.
-#[derive(Debug, Clone, Copy)]
-pub struct StokesParams {
-    /// Viscosity η of the 2η D(u) term (the solvent viscosity in viscoelastic flow).
-    pub eta: f64,
-    /// DEVSS-G parameter θ (the polymer viscosity in viscoelastic flow); 0 = no G unknowns.
-    pub theta: f64,
-    /// Linear solver.
-    pub solver: SolverKind,
-    /// How the rigid-body motion is imposed on the particle boundaries: the weak condition
-    /// (default) or Lagrange multipliers on a ring ([`crate::solver::multiplier`]).
-    pub rigid_condition: RigidCondition,
-    /// Form of the weak rigid-body condition on particles.
-    pub rigid_form: WeakForm,
-    /// Stabilization parameter κ of the weak rigid-body condition (thesis: κ = η0).
-    pub kappa: f64,
-    /// With θ > 0: G as coupled unknowns (true) or supplied explicitly by the caller through
-    /// [`PolymerStress`] as −θGⁿ (false; the flow matrix then has no G block).
-    pub coupled_g: bool,
-    /// Patch ghost penalty of velocity and pressure on the faces of cut elements
-    /// ([`ghost_patch_matrices`](crate::solver::ghost::ghost_patch_matrices)): velocity
-    /// γ (η + θ)/h², pressure −γ/(η + θ); 0 = none.
-    pub ghost_penalty: f64,
-    /// How a changed matrix is factored (LBLᵀ only; LU always factors the whole matrix).
-    pub factorization: FlowFactorization,
-    /// The squeeze resistance of the films the mesh does not resolve, added between the
-    /// particles' rigid rows ([`crate::solver::lubrication`]); `None` = none (the default).
-    pub lubrication: Option<Lubrication>,
-}
-
-impl StokesParams {
-    /// Parameters with viscosity `eta`, DEVSS-G `theta`, the given solver, and the weak rigid-body
-    /// condition in its symmetric form with κ = η + θ (= η0).
-    pub fn new(eta: f64, theta: f64, solver: SolverKind) -> Self {
-        Self {
-            eta,
-            theta,
-            solver,
-            rigid_condition: RigidCondition::Weak,
-            rigid_form: WeakForm::Symmetric,
-            kappa: eta + theta,
-            coupled_g: true,
-            ghost_penalty: FLOW_GHOST_PENALTY,
-            factorization: FlowFactorization::Band,
-            lubrication: None,
-        }
-    }
-}
-
-/// Wall-clock seconds spent in the phases of the last solve.
-#[derive(Debug, Clone, Copy, Default)]
-pub struct Timings {
-    /// Element loop and scatter.
-    pub assembly: f64,
-    /// Symbolic analysis (only on the first solve).
-    pub symbolic: f64,
-    /// New placement of the band ([`FlowFactorization::Band`]): far-field factorization and
-    /// condensation, band analysis.
-    pub placement: f64,
-    /// Numeric factorization.
-    pub numeric: f64,
-    /// Triangular solves and residual check.
-    pub solve: f64,
-}
-
-/// What the flow solves of a run cost beyond their factorizations: the iterations of GMRES
-/// (the symmetric-part preconditioner of a semi-implicit stress, or a polish of an inaccurate
-/// direct solve) and the switches to faer's LU (`fem::linsolve`).
-#[derive(Debug, Clone, Copy, Default, PartialEq, serde::Serialize)]
-pub struct FlowSolverStats {
-    /// Flow solves.
-    pub solves: usize,
-    /// GMRES iterations over all solves.
-    pub krylov_iterations: usize,
-    /// Switches of the symmetric-part solver to a whole LU (each lasts for its pattern).
-    pub lu_fallbacks: usize,
-    /// Numeric factorizations of the flow matrix (the whole matrix's, or the band's).
-    pub factorizations: usize,
-    /// Pattern (and symbolic analysis) rebuilds: a particle left the reach of its pattern.
-    pub pattern_rebuilds: usize,
-    /// Placements of the band solver ([`FlowFactorization::Band`]: far-field factorizations,
-    /// each about a whole factorization and a condensation onto the band's interface).
-    pub placements: usize,
-    /// Factorizations without pivots (the whole matrix's, the band's M and K) whose solve missed
-    /// the residual tolerance, redone with pivoting (`fem::linsolve::unpivoted`; left out of the
-    /// serialized form when none).
-    #[serde(skip_serializing_if = "is_zero")]
-    pub pivoted_refactors: usize,
-    /// Solves with at least one film corrected by [`StokesParams::lubrication`] (left out of
-    /// the serialized form when none).
-    #[serde(skip_serializing_if = "is_zero")]
-    pub lubricated_solves: usize,
-}
-
-fn is_zero(n: &usize) -> bool {
-    *n == 0
-}
-
-/// A Stokes solution in nodal form.
-#[derive(Debug, Clone)]
-pub struct StokesSolution {
-    /// Velocity at each Q2 node.
-    pub u: Vec<[f64; 2]>,
-    /// Pressure at each Q1 vertex (zero mean for enclosed flows).
-    pub p: Vec<f64>,
-    /// Projected velocity gradient at each Q1 vertex (when θ > 0), `[G_xx, G_xy, G_yx, G_yy]`.
-    pub g: Option<Vec<[f64; 4]>>,
-    /// Rigid velocities (U_x, U_y, ω) of the particles.
-    pub rigid: Vec<[f64; 3]>,
-    /// Hydrodynamic force and torque (F_x, F_y, T) on each particle from the reaction of the
-    /// rigid-body condition — the weak condition's, or the integral of the multipliers
-    /// (consistent with the discrete momentum balance; ≈ 0 for free particles).
-    pub reaction: Vec<[f64; 3]>,
-    /// The same from the stress integral −∫ σ(u_h, p_h)·n ds over the particle boundary.
-    pub stress_force: Vec<[f64; 3]>,
-    /// Relative residual of the linear solve.
-    pub residual: f64,
-}
-
-/// Default patch ghost-penalty coefficient of the flow ([`StokesParams::ghost_penalty`]). Chosen
-/// by measurement (docs/validation.md): 0.001 removes the sliver velocities (|u| ≤ wall speed,
-/// point symmetry to 1e-8) and perturbs the free Couette particle's ω by 3e-4 on 64×12; 0.01
-/// perturbs it by 3e-3 and 0.1 moves the confined-cylinder drag by 5e-4 at h = 0.2R.
-pub const FLOW_GHOST_PENALTY: f64 = 0.001;
+use crate::solver::rigid::{ElementCut, Particle};
 
 /// Relative residual accepted from the direct solver (a few hundred ulps of the matrix norm).
 const RESIDUAL_TOL: f64 = 1e-10;
@@ -587,56 +468,8 @@ impl Stokes {
         Ok(self.extract(residual))
     }
 
-    fn extract(&self, residual: f64) -> StokesSolution {
-        let lay = self.layout;
-        let u = (0..lay.n_nodes)
-            .map(|k| [self.sol[lay.u(k, 0)], self.sol[lay.u(k, 1)]])
-            .collect();
-        let mut p: Vec<f64> = (0..lay.n_vertices).map(|v| self.sol[lay.p(v)]).collect();
-        if self.pressure_pinned {
-            let mean = mean_q1(&self.mesh, &p);
-            p.iter_mut().for_each(|v| *v -= mean);
-        }
-        let g = lay.with_g.then(|| {
-            (0..lay.n_vertices)
-                .map(|v| [0, 1, 2, 3].map(|ij| self.sol[lay.g(v, ij)]))
-                .collect()
-        });
-        let rigid = (0..lay.n_particles)
-            .map(|i| [0, 1, 2].map(|c| self.sol[lay.rigid(i, c)]))
-            .collect();
-        let (reaction, stress_force) = self.particle_forces();
-        StokesSolution {
-            u,
-            p,
-            g,
-            rigid,
-            reaction,
-            stress_force,
-            residual,
-        }
-    }
-
     /// Largest asymmetry of the assembled matrix (0 up to round-off: the system is symmetric).
     pub fn matrix_asymmetry(&self) -> f64 {
         self.matrix.asymmetry()
     }
-}
-
-/// Mean of a Q1 field over the mesh.
-pub fn mean_q1(mesh: &Mesh, p: &[f64]) -> f64 {
-    let rule = gauss_quad(2);
-    let (mut int, mut area) = (0.0, 0.0);
-    for e in 0..mesh.n_elements() {
-        for (xi, w) in rule.points.iter().zip(&rule.weights) {
-            let det = q2_map(&mesh.element_coords[e], *xi).2;
-            let psi = q1(*xi).0;
-            let val: f64 = (0..4)
-                .map(|k| psi[k] * p[mesh.element_vertices[e][k]])
-                .sum();
-            int += w * det * val;
-            area += w * det;
-        }
-    }
-    int / area
 }

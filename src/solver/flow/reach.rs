@@ -15,6 +15,7 @@
 use crate::fem::element::q2_map;
 use crate::mesh::dilate;
 use crate::mesh::{bounding_box, Mesh, Shape};
+use crate::periodic::{fold, nearest_image};
 use crate::solver::rigid::{ElementCut, Particle};
 
 /// How far beyond its boundary, in sizes of the element concerned, a particle's rigid-body
@@ -140,10 +141,8 @@ impl Reach {
                 let (Some(then), Some((now, to_length))) = (then, across(mesh, p.center)) else {
                     return [0.0; 2];
                 };
-                let mut d = [now[0] - then[0], now[1] - then[1]];
-                if mesh.periodic {
-                    d[0] -= nx * (d[0] / nx).round();
-                }
+                let period = mesh.periodic.then_some(nx);
+                let d = [fold(now[0] - then[0], period), now[1] - then[1]];
                 let j = to_length;
                 let d = [
                     per_move * (j[0][0] * d[0] + j[0][1] * d[1]),
@@ -167,7 +166,7 @@ impl Reach {
         let (lo, hi) = bounding_box(xe);
         let mid = [0.5 * (lo[0] + hi[0]), 0.5 * (lo[1] + hi[1])];
         particles.iter().zip(&self.ahead).all(|(p, a)| {
-            let c = image_near(p.center, mid[0], period_of(mesh));
+            let c = nearest_image(p.center, mid[0], period_of(mesh));
             if *a == [0.0; 2] || (mid[0] - c[0]).hypot(mid[1] - c[1]) > p.radius {
                 return true;
             }
@@ -202,14 +201,6 @@ fn starts(mesh: &Mesh, particles: &[Particle]) -> Vec<Option<[f64; 2]>> {
 
 fn norm(v: [f64; 2]) -> f64 {
     v[0].hypot(v[1])
-}
-
-/// `c` moved by whole periods to the image nearest to `x` in x.
-fn image_near(mut c: [f64; 2], x: f64, period: Option<f64>) -> [f64; 2] {
-    if let Some(l) = period {
-        c[0] -= l * ((c[0] - x) / l).round();
-    }
-    c
 }
 
 /// The x-period of a periodic rectangle.
@@ -247,7 +238,7 @@ fn rigid_reach(mesh: &Mesh, particles: &[Particle], ahead: &[[f64; 2]]) -> Vec<V
                 .map(|xe| {
                     let (lo, hi) = bounding_box(xe);
                     let size = (hi[0] - lo[0]).max(hi[1] - lo[1]);
-                    let c = image_near(p.center, 0.5 * (lo[0] + hi[0]), period);
+                    let c = nearest_image(p.center, 0.5 * (lo[0] + hi[0]), period);
                     let end = [c[0] + a[0], c[1] + a[1]];
                     let to_box = |q: [f64; 2]| {
                         let b = [q[0].clamp(lo[0], hi[0]), q[1].clamp(lo[1], hi[1])];
