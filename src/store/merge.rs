@@ -17,9 +17,9 @@ use std::path::{Path, PathBuf};
 
 use rusqlite::{params, OptionalExtension, TransactionBehavior};
 
-use super::cases::owner_alive;
 use super::open::immutable_uri;
 use super::shard::shard_cases;
+use super::status::owner_alive;
 use super::{hostname, schema, Result, Store, StoreError};
 
 /// The columns of `cases` copied from a shard as they are (`id`, `sweep_id` and `run_id` are

@@ -17,6 +17,7 @@ pub mod query;
 pub mod schema;
 pub mod shard;
 pub mod snapshot;
+pub mod status;
 pub mod table;
 
 use std::path::{Path, PathBuf};
@@ -24,8 +25,9 @@ use std::time::Duration;
 
 use rusqlite::{params, Connection, OptionalExtension, TransactionBehavior};
 
-pub use cases::{CaseRecord, Claim, ClaimResult, FailedCase, RunningCase, SweepCounts};
+pub use cases::{CaseRecord, Claim, ClaimResult};
 pub use outcomes::StoredOutcome;
+pub use status::{FailedCase, RunningCase, SweepCounts};
 pub use table::{Format, Table};
 
 /// How long a connection waits for another writer before giving up: a finished case's transaction takes

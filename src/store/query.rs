@@ -319,7 +319,7 @@ impl Store {
                     let owner = owner.as_ref().and_then(Value::as_str);
                     // a case `running` in the database whose process is gone was interrupted
                     if r[2] == "running"
-                        && super::cases::owner_alive(owner, pid, &host) == Some(false)
+                        && super::status::owner_alive(owner, pid, &host) == Some(false)
                     {
                         r[2] = json!("interrupted");
                     }
