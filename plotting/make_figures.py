@@ -31,6 +31,7 @@ SCRIPTS = [
     "alignment_trajectories",
     "alignment_velocities",
     "alignment_steady",
+    "string_gaps",
     "regime_map",
     "string_tables",
     "mesh_convergence",

@@ -32,6 +32,7 @@ const EXPECTED_FIGURES: &[&str] = &[
     "alignment_trajectories",
     "alignment_velocities",
     "alignment_steady_omega",
+    "string_gaps",
     "regime_map",
     "mesh_convergence",
     "field_snapshots",
@@ -50,6 +51,7 @@ const EMPTY_DB_FIGURES: &[&str] = &[
     "alignment_trajectories",
     "alignment_velocities",
     "alignment_steady_omega",
+    "string_gaps",
     "regime_map",
     "mesh_convergence",
 ];
