@@ -21,7 +21,7 @@ import numpy as np
 import figlib as fl
 
 NAME = "string_gaps"
-TITLE = "Gaps between neighbouring particles over time"
+TITLE = "Gaps between neighbouring particles over time (0–1 solid, 1–2 dashed, 2–3 dotted, ...)"
 #: Smallest gap drawn on the log axis (in units of a): an overlap or contact is clipped to it.
 FLOOR = 1e-4
 
@@ -62,7 +62,7 @@ def draw(ax, f: fl.Figures, cases: list[fl.Case]) -> bool:
         drawn = True
     ax.set_yscale("log")
     ax.set_xlabel("t*")
-    ax.set_ylabel("gap / a (neighbours 0–1 solid, 1–2 dashed, ...)")
+    ax.set_ylabel("gap / a")
     ax.grid(True, which="major", alpha=0.3)
     return drawn
 
