@@ -105,6 +105,14 @@ impl CaseSpec {
         (self.numerics.t_end / self.numerics.dt.initial() - STEP_ROUND_OFF).ceil()
     }
 
+    /// Time steps to the end time at the largest Δt, ⌈t_end/Δt_max⌉ ([`TimeStep::largest`]):
+    /// all of a fixed step's, the fewest an adaptive step can take.
+    ///
+    /// [`TimeStep::largest`]: crate::config::TimeStep::largest
+    pub fn steps_at_largest_dt(&self) -> f64 {
+        (self.numerics.t_end / self.numerics.dt.largest() - STEP_ROUND_OFF).ceil()
+    }
+
     /// Cost of one time step per element relative to the explicit coupling's: 1 explicit (and
     /// without polymer), [`COUPLED_G_STEP_COST`] with G solved with the flow,
     /// [`SEMI_IMPLICIT_STEP_COST`] semi-implicit. Times a measured seconds per element and step,

@@ -55,6 +55,14 @@ impl TimeStep {
         }
     }
 
+    /// The largest Δt a step takes: the fixed step, or the adaptive step's `max`.
+    pub fn largest(&self) -> f64 {
+        match self {
+            TimeStep::Fixed(dt) => *dt,
+            TimeStep::Adaptive(a) => a.max,
+        }
+    }
+
     /// The controller's settings, for an adaptive step.
     pub fn adaptive(&self) -> Option<AdaptiveStep> {
         match self {

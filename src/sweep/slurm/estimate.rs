@@ -78,10 +78,18 @@ impl Rate {
 /// leaves out or overstates (early stops, adaptive steps above the initial Δt, rejected steps,
 /// resumptions, the machine's load), and it gives the finished cases' own total back exactly;
 /// a sum rather than a median, because a study's cost is its long cases'.
+///
+/// A case that cannot stop early (`stop.early_stop = false`) runs to t_end whatever it does, so
+/// the finished cases' early stops say nothing of it: it is expected to take t_end over its
+/// largest Δt steps (the fixed step, or the adaptive step's `max`, which the controller never
+/// exceeds: a lower bound on its steps) at the finished cases' cost per element and step taken.
 #[derive(Debug, Clone, Copy, PartialEq)]
 pub struct Expectation {
     /// Seconds per element and bound step.
     pub seconds: f64,
+    /// Seconds per element and step taken (the finished cases' wall time over their steps'
+    /// work): the cost of a case that runs to its end.
+    pub per_step: f64,
     /// The finished cases' wall time in all, in seconds.
     pub wall: f64,
     /// How many finished cases were measured.
@@ -91,35 +99,48 @@ pub struct Expectation {
 impl Expectation {
     /// The expectation from finished cases `(case, wall seconds, steps)`; `None` without any.
     pub fn from_finished(finished: &[(CaseSpec, f64, u64)]) -> Option<Expectation> {
-        let (mut wall, mut work, mut cases) = (0.0, 0.0, 0);
+        let (mut wall, mut work, mut taken, mut cases) = (0.0, 0.0, 0.0, 0);
         for (c, w, steps) in finished {
-            let bound = case_steps_bound(c) * c.mesh_elements() * c.step_cost();
+            let per_step = c.mesh_elements() * c.step_cost();
+            let bound = case_steps_bound(c) * per_step;
             if *steps > 0 && *w > 0.0 && bound > 0.0 {
                 wall += w;
                 work += bound;
+                taken += *steps as f64 * per_step;
                 cases += 1;
             }
         }
         (cases > 0).then(|| Expectation {
             seconds: wall / work,
+            per_step: wall / taken,
             wall,
             cases,
         })
     }
 
-    /// Expected core-seconds of a case whose step bound is `steps`.
+    /// Expected core-seconds of a case whose step bound is `steps` (its steps at the initial Δt
+    /// and an extrusion's prelude): by the finished cases' share of their bounds, or, for a case
+    /// without early stop, its steps at the largest Δt (and the prelude's bound) at the cost per
+    /// step taken.
     pub fn seconds_of(&self, spec: &CaseSpec, steps: f64) -> f64 {
-        steps * spec.mesh_elements() * spec.step_cost() * self.seconds
+        let work = spec.mesh_elements() * spec.step_cost();
+        if spec.stop.early_stop {
+            return steps * work * self.seconds;
+        }
+        let to_end = steps - spec.steps() + spec.steps_at_largest_dt();
+        to_end * work * self.per_step
     }
 
     /// Where the number comes from.
     pub fn source(&self) -> String {
         format!(
             "{:.1} µs per element and bound step: the {} finished case(s) of the database, \
-             {:.1} core-hours, over their step bounds",
+             {:.1} core-hours, over their step bounds; a case without early stop at its largest \
+             Δt, {:.1} µs per element and step taken",
             self.seconds * 1e6,
             self.cases,
-            self.wall / 3600.0
+            self.wall / 3600.0,
+            self.per_step * 1e6
         )
     }
 }
@@ -198,6 +219,7 @@ pub fn slurm_time(seconds: f64) -> String {
 #[cfg(test)]
 mod tests {
     use super::*;
+    use crate::config::{AdaptiveStep, TimeStep};
 
     fn case(mesh: [usize; 2], t_end: f64, beta: f64) -> CaseSpec {
         CaseSpec::from_value(serde_json::json!({
@@ -263,6 +285,26 @@ mod tests {
         assert_eq!((e.wall, e.cases), (30.0, 3));
         assert!((e.seconds_of(&c, 1000.0) - 10.0).abs() < 1e-9);
         assert!(e.source().contains("3 finished case(s)"), "{}", e.source());
+        // 30 s over 750 steps of 10⁴ elements: 4 µs per element and step taken; a case that
+        // cannot stop early runs t_end / Δt_max = 20 / 0.2 = 100 steps (its bound is 200 at
+        // the initial 0.1) and is expected at 100 × 10⁴ × 4e-6 = 4 s
+        assert!((e.per_step - 4e-6).abs() < 1e-18, "{e:?}");
+        let mut to_end = c.clone();
+        to_end.stop.early_stop = false;
+        to_end.numerics.dt = TimeStep::Adaptive(AdaptiveStep {
+            initial: 0.1,
+            min: 0.01,
+            max: 0.2,
+            tol: 1e-3,
+            coupling_lag: false,
+        });
+        assert_eq!(case_steps_bound(&to_end), 200.0);
+        assert!((e.seconds_of(&to_end, 200.0) - 4.0).abs() < 1e-9);
+        assert!(
+            e.source().contains("4.0 µs per element and step taken"),
+            "{}",
+            e.source()
+        );
         // the bound takes the slowest rate per step taken: 20 s / (250 × 10⁴)
         assert_eq!(Rate::from_finished(&finished).seconds(), 8e-6);
         assert_eq!(Expectation::from_finished(&[]), None);
