@@ -267,15 +267,18 @@ impl Classifier {
     }
 
     fn contact_described(&mut self, contact: &Contact, t: f64, what: String) -> Option<Outcome> {
-        if self.decided.is_some() {
-            return None;
-        }
         let kind = match contact {
             Contact::Overlap { .. } => OutcomeKind::Jammed,
             Contact::Wall { .. } => OutcomeKind::WallContact,
             Contact::Surface { .. } => OutcomeKind::SurfaceContact,
             Contact::Outflow { .. } => OutcomeKind::Exited,
         };
+        if let Some(decided) = &mut self.decided {
+            // the first decision stands; a run that went on past it (no early stop) says why it
+            // ended before its end time
+            decided.final_state["ended_by"] = json!({ "kind": kind, "t": t, "contact": what });
+            return None;
+        }
         let mut outcome = self.outcome(kind, t, None);
         outcome.final_state["contact"] = json!(what);
         self.decided = Some(outcome.clone());
@@ -289,9 +292,16 @@ impl Classifier {
         outcome
     }
 
-    /// The outcome at the end of the run (decided earlier, or by the end-time rules).
+    /// The outcome at the end of the run (decided earlier, or by the end-time rules). A decided
+    /// outcome whose run went on (no early stop) keeps its state at the decision and adds the
+    /// last sample's as `final_state.at_end` (t, positions, ω*, gaps): what became of a string.
     pub fn finish(mut self) -> Outcome {
-        if let Some(o) = self.decided.take() {
+        if let Some(mut o) = self.decided.take() {
+            let t = self.last.as_ref().map_or(o.t_decided, |s| s.t);
+            if t > o.t_decided {
+                let now = self.outcome(o.kind, t, None).final_state;
+                o.final_state["at_end"] = json!({ "t": t, "positions": now["positions"], "omega_star": now["omega_star"], "gaps_over_a": now["gaps_over_a"] });
+            }
             return o;
         }
         let t = self.last.as_ref().map_or(0.0, |s| s.t);

@@ -424,3 +424,63 @@ fn all_lists_every_kind_once_with_its_stored_name() {
         assert_eq!(stored, serde_json::json!(k.as_str()));
     }
 }
+
+/// A run without early stop goes on past its decision (the robustness studies: a string that
+/// later breaks up, a pair that later collides): the first decision stands with its state, the
+/// last sample's state is added as `at_end`, and a contact that ends the run before its end time
+/// says so in `ended_by` (measured: `sweeps/beta_robustness.toml` at β = 0.3 was `repel` at
+/// t* 96.7, its remaining pair tumbled and overlapped at t* 126.2, and the record said neither).
+#[test]
+fn a_run_past_its_decision_keeps_it_and_says_how_it_ended() {
+    let spec = shear(3);
+    let mut c = Classifier::new(&spec);
+    let mut decided_at = None;
+    let mut step = 0;
+    while decided_at.is_none() && step < 100_000 {
+        step += 1;
+        let t = step as f64 * DT;
+        decided_at = c
+            .push(&synthetic::sample(OutcomeKind::Repel, &spec, step, t))
+            .map(|o| o.t_decided);
+    }
+    let decided_at = decided_at.expect("the synthetic repel is decided");
+    for more in 1..=50 {
+        let t = (step + more) as f64 * DT;
+        assert!(c
+            .push(&synthetic::sample(
+                OutcomeKind::Repel,
+                &spec,
+                step + more,
+                t
+            ))
+            .is_none());
+    }
+    let t_end = (step + 50) as f64 * DT;
+    let overlap = crate::particles::Contact::Overlap {
+        i: 1,
+        j: 2,
+        gap: -0.012,
+    };
+    assert!(
+        c.contact(&overlap, t_end).is_none(),
+        "the first decision stands"
+    );
+    let o = c.finish();
+    assert_eq!(o.kind, OutcomeKind::Repel);
+    assert_eq!(o.t_decided, decided_at);
+    assert_eq!(o.final_state["t"], json!(decided_at));
+    let ended = &o.final_state["ended_by"];
+    assert_eq!(ended["kind"], json!("jammed"));
+    assert_eq!(ended["t"], json!(t_end));
+    assert!(ended["contact"]
+        .as_str()
+        .unwrap()
+        .contains("particles 1 and 2"));
+    let at_end = &o.final_state["at_end"];
+    assert_eq!(at_end["t"], json!(t_end));
+    assert_eq!(at_end["positions"].as_array().unwrap().len(), 3);
+    assert_eq!(at_end["gaps_over_a"].as_array().unwrap().len(), 2);
+    // a run that stops at its decision has neither
+    let o = classify(OutcomeKind::Repel, &shear(3));
+    assert!(o.final_state.get("at_end").is_none() && o.final_state.get("ended_by").is_none());
+}
