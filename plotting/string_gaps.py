@@ -17,6 +17,7 @@ Usage: python plotting/string_gaps.py DB [OUT_DIR]
 from __future__ import annotations
 
 import numpy as np
+from matplotlib.ticker import NullLocator
 
 import figlib as fl
 
@@ -61,6 +62,8 @@ def draw(ax, f: fl.Figures, cases: list[fl.Case]) -> bool:
                 ax.plot(t[-1], max(d[-1], FLOOR), "o", mfc="none", color=colour, ms=5)
         drawn = True
     ax.set_yscale("log")
+    # (a log axis' minor ticks are most of the layout's time on pages of twelve panels)
+    ax.yaxis.set_minor_locator(NullLocator())
     ax.set_xlabel("t*")
     ax.set_ylabel("gap / a")
     ax.grid(True, which="major", alpha=0.3)
