@@ -108,7 +108,8 @@ pub enum QueryWhat {
     /// One row per case with status and outcome.
     Cases,
     /// Final state of every particle of every decided case: position, ω*, gap to the next particle
-    /// along the chain (thesis 5.6.3 final positions, 5.7.2 terminal ω* and gaps).
+    /// along the chain (thesis 5.6.3 final positions, 5.7.2 terminal ω* and gaps); for a run that
+    /// went on past its decision (no early stop) also its state at the end (`state` = `end`).
     Final,
     /// Raw samples of one case (`--case ID`).
     Trajectory,

@@ -357,35 +357,19 @@ impl Store {
                         .as_str()
                         .and_then(|s| serde_json::from_str(s).ok())
                         .unwrap_or(Value::Null);
-                    let at =
-                        |key: &str, i: usize| state[key].get(i).cloned().unwrap_or(Value::Null);
-                    let positions = state["positions"].as_array().cloned().unwrap_or_default();
-                    let x_of = |i: usize| positions[i].get(0).and_then(Value::as_f64);
-                    // gaps_over_a[k] is between the k-th and (k+1)-th particle ordered by x (as the
-                    // classifier orders the chain): give it to the k-th as its gap to the next
-                    let mut by_x: Vec<usize> = (0..positions.len()).collect();
-                    by_x.sort_by(|&i, &j| {
-                        x_of(i)
-                            .unwrap_or(f64::NAN)
-                            .total_cmp(&x_of(j).unwrap_or(f64::NAN))
-                    });
-                    let mut gap_next = vec![Value::Null; positions.len()];
-                    for (k, &i) in by_x.iter().enumerate() {
-                        gap_next[i] = at("gaps_over_a", k);
-                    }
-                    for (i, p) in positions.iter().enumerate() {
-                        rows.push(vec![
-                            r[0].clone(),
-                            r[1].clone(),
-                            r[2].clone(),
-                            r[3].clone(),
-                            json!(i),
-                            p.get(0).cloned().unwrap_or(Value::Null),
-                            p.get(1).cloned().unwrap_or(Value::Null),
-                            at("omega_star", i),
-                            gap_next[i].clone(),
-                            at("r_star", i),
-                        ]);
+                    // the state at the decision, and the last one of a run that went on past it
+                    // (no early stop: `at_end`)
+                    let end = &state["at_end"];
+                    for (which, s) in [("decided", &state), ("end", end)] {
+                        if s.is_null() {
+                            continue;
+                        }
+                        for particle in final_rows(s) {
+                            let mut row = r[..4].to_vec();
+                            row.extend([json!(which), s["t"].clone()]);
+                            row.extend(particle);
+                            rows.push(row);
+                        }
                     }
                 }
                 let cols = [
@@ -393,6 +377,8 @@ impl Store {
                     "label",
                     "kind",
                     "t_decided",
+                    "state",
+                    "t",
                     "particle",
                     "x",
                     "y",
@@ -554,5 +540,70 @@ fn pivot<C: Ord + Copy + std::fmt::Display>(
 impl std::fmt::Display for Key {
     fn fmt(&self, f: &mut std::fmt::Formatter<'_>) -> std::fmt::Result {
         write!(f, "{}", self.0)
+    }
+}
+
+/// One row per particle of a final state (`final_json`, or its `at_end`): index, x, y, ω*, the
+/// gap to the next particle along the chain over a, r*.
+fn final_rows(state: &Value) -> Vec<Vec<Value>> {
+    let at = |key: &str, i: usize| state[key].get(i).cloned().unwrap_or(Value::Null);
+    let positions = state["positions"].as_array().cloned().unwrap_or_default();
+    let x_of = |i: usize| positions[i].get(0).and_then(Value::as_f64);
+    // gaps_over_a[k] is between the k-th and (k+1)-th particle ordered by x (as the classifier
+    // orders the chain): give it to the k-th as its gap to the next
+    let mut by_x: Vec<usize> = (0..positions.len()).collect();
+    by_x.sort_by(|&i, &j| {
+        x_of(i)
+            .unwrap_or(f64::NAN)
+            .total_cmp(&x_of(j).unwrap_or(f64::NAN))
+    });
+    let mut gap_next = vec![Value::Null; positions.len()];
+    for (k, &i) in by_x.iter().enumerate() {
+        gap_next[i] = at("gaps_over_a", k);
+    }
+    positions
+        .iter()
+        .enumerate()
+        .map(|(i, p)| {
+            vec![
+                json!(i),
+                p.get(0).cloned().unwrap_or(Value::Null),
+                p.get(1).cloned().unwrap_or(Value::Null),
+                at("omega_star", i),
+                gap_next[i].clone(),
+                at("r_star", i),
+            ]
+        })
+        .collect()
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    /// A final state's rows: the chain's gaps go to the particles in x order (the classifier's),
+    /// the last one along x has none; an `at_end` state reads the same way (no r* there).
+    #[test]
+    fn final_rows_give_each_particle_its_gap_to_the_next_along_x() {
+        let state = json!({
+            "t": 96.7,
+            "positions": [[0.5, -0.1], [-0.5, 0.1], [0.0, 0.0]],
+            "omega_star": [0.1, 0.2, 0.3],
+            "gaps_over_a": [0.05, 0.07],
+        });
+        let rows = final_rows(&state);
+        assert_eq!(rows.len(), 3);
+        let gap = |i: usize| rows[i][4].clone();
+        // x order: particle 1 (−0.5), 2 (0), 0 (0.5)
+        assert_eq!(
+            (gap(1), gap(2), gap(0)),
+            (json!(0.05), json!(0.07), Value::Null)
+        );
+        assert_eq!(
+            rows[0][..4],
+            [json!(0), json!(0.5), json!(-0.1), json!(0.1)]
+        );
+        assert_eq!(rows[2][5], Value::Null);
+        assert!(final_rows(&Value::Null).is_empty());
     }
 }
