@@ -20,6 +20,10 @@
 //! string that translates, or whose ω* still wanders above the steady tolerance:
 //! `final_state.steady = false`; strings of rule 4 have `steady = true`); otherwise `timeout`.
 //!
+//! An outcome other than `string` whose particles formed one chain for at least
+//! [`DRIFTING_STRING_HOLD`] t* on the way (a string that came apart, or met a contact) says when:
+//! `final_state.chain_held` {from, to}, the longest such chain.
+//!
 //! Every outcome carries the resolution it rests on: the fewest elements across the narrowest gap
 //! up to the decision (`final_state.gap_elements_min`, and `gap_elements` at the decision), and a
 //! `final_state.warning` when a decided outcome rests on fewer than [`MIN_GAP_ELEMENTS`].
@@ -163,6 +167,10 @@ pub struct Classifier {
     /// Since when (t) the particles have formed one chain (confined shear, N ≥ 2).
     #[serde(default)]
     chained_since: Option<f64>,
+    /// The longest time (from, to) the particles formed one chain for at least
+    /// [`DRIFTING_STRING_HOLD`] t* before it broke: a string that formed and came apart.
+    #[serde(default)]
+    chain_held: Option<[f64; 2]>,
     last: Option<Sample>,
     /// Fewest elements across the narrowest gap so far (until the decision).
     #[serde(default)]
@@ -200,6 +208,7 @@ impl Classifier {
             last_omega: None,
             steady_steps: 0,
             chained_since: None,
+            chain_held: None,
             last: None,
             min_gap_elements: None,
             decided: None,
@@ -346,6 +355,20 @@ impl Classifier {
         outcome
     }
 
+    /// The longest time (from, to) the particles formed one chain for at least
+    /// [`DRIFTING_STRING_HOLD`] t*: one that broke, or the one they form now.
+    fn longest_chain(&self) -> Option<[f64; 2]> {
+        let now = self
+            .chained_since
+            .zip(self.last.as_ref().map(|l| l.t))
+            .map(|(a, b)| [a, b])
+            .filter(|[a, b]| (b - a) * self.rate >= DRIFTING_STRING_HOLD);
+        match (self.chain_held, now) {
+            (Some(h), Some(n)) => Some(if n[1] - n[0] > h[1] - h[0] { n } else { h }),
+            (h, n) => h.or(n),
+        }
+    }
+
     fn decide(&mut self, s: &Sample) -> Option<OutcomeKind> {
         let ps = &s.particles;
         if !s.t.is_finite() || ps.iter().any(|p| !state_is_finite(p)) {
@@ -395,6 +418,12 @@ impl Classifier {
         self.chained_since = if chained {
             self.chained_since.or(Some(s.t))
         } else {
+            if let (Some(t0), Some(t1)) = (self.chained_since, self.last.as_ref().map(|l| l.t)) {
+                let longest = self.chain_held.map_or(0.0, |[a, b]| b - a);
+                if (t1 - t0) * self.rate >= DRIFTING_STRING_HOLD && t1 - t0 > longest {
+                    self.chain_held = Some([t0, t1]);
+                }
+            }
             None
         };
         // Steady-state test on the rate of change of ω* over the step.
@@ -545,6 +574,10 @@ impl Classifier {
         }
         if let Some(e) = self.last.as_ref().and_then(|s| s.gap_elements) {
             final_state["gap_elements"] = json!(e);
+        }
+        if let (Some([from, to]), false) = (self.longest_chain(), kind == OutcomeKind::String) {
+            // a string formed before this outcome (and came apart, or met a contact)
+            final_state["chain_held"] = json!({ "from": from, "to": to });
         }
         if let Some(m) = self.min_gap_elements {
             final_state["gap_elements_min"] = json!(m);

@@ -484,3 +484,60 @@ fn a_run_past_its_decision_keeps_it_and_says_how_it_ended() {
     let o = classify(OutcomeKind::Repel, &shear(3));
     assert!(o.final_state.get("at_end").is_none() && o.final_state.get("ended_by").is_none());
 }
+
+/// A chain of all the particles that held for more than [`DRIFTING_STRING_HOLD`] and then came
+/// apart is told in the final state (`chain_held`): the robustness studies' strings that broke into
+/// a pair and a single particle were recorded as a bare `repel`.
+#[test]
+fn a_string_that_formed_and_broke_is_told_in_the_outcome() {
+    let spec = shear(3);
+    let mut c = Classifier::new(&spec);
+    let particle = |x: f64, y: f64, omega: f64| ParticleState {
+        x,
+        y,
+        u: 0.0,
+        v: 0.0,
+        omega,
+        theta: 0.0,
+        separation: None,
+    };
+    // a chain with gaps of 0.1a (x = ±0.21 about the centre) from t = 0 to 30, ω* wandering so
+    // that the steady test never fires; then the third particle leaves along x
+    let mut outcome = None;
+    for step in 0..=4000_u64 {
+        let t = step as f64 * DT;
+        let omega = 0.1 + 0.05 * (t * 2.0).sin();
+        let x2 = if t <= 30.0 {
+            0.21
+        } else {
+            0.21 + 0.1 * (t - 30.0)
+        };
+        let s = Sample {
+            step,
+            t,
+            gap_elements: None,
+            surface: None,
+            particles: vec![
+                particle(-0.21, 0.0, omega),
+                particle(0.0, 0.0, -omega),
+                particle(x2, 0.0, omega),
+            ],
+        };
+        if let Some(o) = c.push(&s) {
+            outcome = Some(o);
+            break;
+        }
+    }
+    let o = outcome.expect("decided");
+    assert_eq!(o.kind, OutcomeKind::Repel, "{o:?}");
+    let held = &o.final_state["chain_held"];
+    assert_eq!(held["from"], json!(0.0));
+    // the chain broke when the third gap passed CHAIN_GAP a = 0.05: x2 − 0.1 > 0.15, t > 30.4
+    let to = held["to"].as_f64().unwrap();
+    assert!((to - 30.4).abs() < 2.0 * DT, "{held}");
+    // a string that formed and stays has no such record
+    assert!(classify(OutcomeKind::String, &shear(3))
+        .final_state
+        .get("chain_held")
+        .is_none());
+}
