@@ -34,7 +34,7 @@ bin=${XPFLOW:-${CARGO_TARGET_DIR:-target}/release/xpflow}
 case $action in
 save)
 	[ -f "$db" ] || { echo "no database $db" >&2; exit 1; }
-	if pgrep -f "xpflow sweep .*--db $db" >/dev/null; then
+	if pgrep -f "xpflow[^ ]* sweep .*--db $db" >/dev/null; then
 		echo "a sweep still writes $db: stop it first" >&2
 		exit 1
 	fi
