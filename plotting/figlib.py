@@ -236,7 +236,11 @@ class Case:
         """How the initial positions were given: 'l_x = 0.5, l_y = 0.1' or 'r0* = 1/3'."""
         kind, v = self.layout()
         if kind in ("string", "pair"):
-            return describe({"lx": v.get("lx"), "ly": v.get("ly")})
+            text = describe({"lx": v.get("lx"), "ly": v.get("ly")})
+            if v.get("perturb"):
+                dx, dy = v["perturb"]
+                text += f", particle {v['n'] // 2} moved by ({fmt(dx)}, {fmt(dy)})"
+            return text
         if kind == "couette":
             return describe({"r0": v.get("r0_star")})
         if kind == "explicit":
@@ -248,7 +252,11 @@ class Case:
         kind, v = self.layout()
         if kind == "string":
             n, c = v["n"], (v["n"] - 1) / 2
-            return [((k - c) * v["lx"], -(k - c) * v["ly"]) for k in range(n)]
+            xs = [((k - c) * v["lx"], -(k - c) * v["ly"]) for k in range(n)]
+            if v.get("perturb"):
+                dx, dy = v["perturb"]
+                xs[n // 2] = (xs[n // 2][0] + dx, xs[n // 2][1] + dy)
+            return xs
         if kind == "pair":
             return [(-v["lx"], v["ly"]), (v["lx"], -v["ly"])]
         if kind == "explicit":

@@ -150,6 +150,12 @@ pub enum Layout {
         lx: f64,
         /// y-distance between neighbouring centres.
         ly: f64,
+        /// The particle ⌊n/2⌋ (the centre one of an odd string) moved by [dx, dy] off the
+        /// point-symmetric layout: a point-symmetric layout on a point-symmetric mesh keeps its
+        /// symmetry to round-off, and can keep an unstable symmetric string alive
+        /// (`sweeps/beta_robustness.toml`). Default none (not in the case id then).
+        #[serde(default, skip_serializing_if = "Option::is_none")]
+        perturb: Option<[f64; 2]>,
     },
     /// The two-particle set-up of thesis 5.6.1: centres (−l_x, l_y) and (l_x, −l_y).
     Pair {

@@ -83,7 +83,13 @@ impl CaseSpec {
             return Vec::new();
         };
         match &p.layout {
-            Layout::String { n, lx, ly } => layout::string_positions(*n, *lx, *ly),
+            Layout::String { n, lx, ly, perturb } => {
+                let mut x = layout::string_positions(*n, *lx, *ly);
+                if let Some([dx, dy]) = perturb {
+                    x[n / 2] = [x[n / 2][0] + dx, x[n / 2][1] + dy];
+                }
+                x
+            }
             Layout::Pair { lx, ly } => layout::pair_positions(*lx, *ly),
             Layout::Explicit { positions } => positions.clone(),
             Layout::Couette { r0_star, angle } => match self.geometry {

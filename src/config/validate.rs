@@ -219,7 +219,7 @@ impl CaseSpec {
         positive("particles.radius", p.radius)?;
         let a = p.radius;
         match &p.layout {
-            Layout::String { n, lx, ly } => {
+            Layout::String { n, lx, ly, perturb } => {
                 if *n == 0 {
                     return Err(SpecError::new(
                         "particles.layout.string.n",
@@ -228,6 +228,9 @@ impl CaseSpec {
                 }
                 finite("particles.layout.string.lx", *lx)?;
                 finite("particles.layout.string.ly", *ly)?;
+                for d in perturb.iter().flatten() {
+                    finite("particles.layout.string.perturb", *d)?;
+                }
             }
             Layout::Pair { lx, ly } => {
                 finite("particles.layout.pair.lx", *lx)?;
