@@ -45,4 +45,6 @@ pub use validate::{MAX_DT_OVER_LAMBDA, MAX_EXTRAPOLATED_DT_OVER_BETA_LAMBDA};
 #[cfg(test)]
 mod extrusion_tests;
 #[cfg(test)]
+mod layout_tests;
+#[cfg(test)]
 mod tests;

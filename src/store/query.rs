@@ -578,32 +578,4 @@ fn final_rows(state: &Value) -> Vec<Vec<Value>> {
 }
 
 #[cfg(test)]
-mod tests {
-    use super::*;
-
-    /// A final state's rows: the chain's gaps go to the particles in x order (the classifier's),
-    /// the last one along x has none; an `at_end` state reads the same way (no r* there).
-    #[test]
-    fn final_rows_give_each_particle_its_gap_to_the_next_along_x() {
-        let state = json!({
-            "t": 96.7,
-            "positions": [[0.5, -0.1], [-0.5, 0.1], [0.0, 0.0]],
-            "omega_star": [0.1, 0.2, 0.3],
-            "gaps_over_a": [0.05, 0.07],
-        });
-        let rows = final_rows(&state);
-        assert_eq!(rows.len(), 3);
-        let gap = |i: usize| rows[i][4].clone();
-        // x order: particle 1 (−0.5), 2 (0), 0 (0.5)
-        assert_eq!(
-            (gap(1), gap(2), gap(0)),
-            (json!(0.05), json!(0.07), Value::Null)
-        );
-        assert_eq!(
-            rows[0][..4],
-            [json!(0), json!(0.5), json!(-0.1), json!(0.1)]
-        );
-        assert_eq!(rows[2][5], Value::Null);
-        assert!(final_rows(&Value::Null).is_empty());
-    }
-}
+mod tests;
