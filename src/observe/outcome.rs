@@ -308,8 +308,7 @@ impl Classifier {
         if let Some(mut o) = self.decided.take() {
             let t = self.last.as_ref().map_or(o.t_decided, |s| s.t);
             if t > o.t_decided {
-                let now = self.outcome(o.kind, t, None).final_state;
-                o.final_state["at_end"] = json!({ "t": t, "positions": now["positions"], "omega_star": now["omega_star"], "gaps_over_a": now["gaps_over_a"] });
+                o.final_state["at_end"] = self.particles_at(t).0;
             }
             return o;
         }
@@ -415,17 +414,13 @@ impl Classifier {
             && chain_gaps(&centres, a, self.period)
                 .iter()
                 .all(|g| *g < CHAIN_GAP * a);
-        self.chained_since = if chained {
-            self.chained_since.or(Some(s.t))
+        if chained {
+            self.chained_since = self.chained_since.or(Some(s.t));
         } else {
-            if let (Some(t0), Some(t1)) = (self.chained_since, self.last.as_ref().map(|l| l.t)) {
-                let longest = self.chain_held.map_or(0.0, |[a, b]| b - a);
-                if (t1 - t0) * self.rate >= DRIFTING_STRING_HOLD && t1 - t0 > longest {
-                    self.chain_held = Some([t0, t1]);
-                }
-            }
-            None
-        };
+            // (the chain up to the last sample: kept if it is the longest that held)
+            self.chain_held = self.longest_chain();
+            self.chained_since = None;
+        }
         // Steady-state test on the rate of change of ω* over the step.
         let omega: Vec<f64> = ps.iter().map(|p| p.omega / self.rate).collect();
         let dt_star = self.last.as_ref().map(|l| (s.t - l.t) * self.rate);

@@ -12,20 +12,10 @@ impl Classifier {
     /// state of the last sample.
     pub(super) fn outcome(&self, kind: OutcomeKind, t: f64, reason: Option<&str>) -> Outcome {
         let ps: &[ParticleState] = self.last.as_ref().map_or(&[], |s| &s.particles);
+        let (mut final_state, gaps) = self.particles_at(t);
         let centres: Vec<[f64; 2]> = ps.iter().map(|p| [p.x, p.y]).collect();
-        let gaps = if centres.len() >= 2 && self.radius > 0.0 {
-            chain_gaps(&centres, self.radius, self.period)
-        } else {
-            Vec::new()
-        };
         let mean_gap = (!gaps.is_empty() && gaps.iter().all(|g| g.is_finite()))
             .then(|| gaps.iter().sum::<f64>() / gaps.len() as f64 / self.radius);
-        let mut final_state = json!({
-            "t": t,
-            "positions": centres,
-            "omega_star": ps.iter().map(|p| p.omega / self.omega_scale()).collect::<Vec<_>>(),
-            "gaps_over_a": gaps.iter().map(|g| g / self.radius).collect::<Vec<_>>(),
-        });
         if let Geometry::Couette { r1, r2, .. } = self.geometry {
             final_state["r_star"] = json!(centres
                 .iter()
@@ -94,5 +84,25 @@ impl Classifier {
             },
             final_state,
         }
+    }
+
+    /// The particles of the last sample, labelled time `t`: `{t, positions, omega_star,
+    /// gaps_over_a}` (the core of every final state, and a run's `at_end`), and the chain's
+    /// surface gaps.
+    pub(super) fn particles_at(&self, t: f64) -> (serde_json::Value, Vec<f64>) {
+        let ps: &[ParticleState] = self.last.as_ref().map_or(&[], |s| &s.particles);
+        let centres: Vec<[f64; 2]> = ps.iter().map(|p| [p.x, p.y]).collect();
+        let gaps = if centres.len() >= 2 && self.radius > 0.0 {
+            chain_gaps(&centres, self.radius, self.period)
+        } else {
+            Vec::new()
+        };
+        let state = json!({
+            "t": t,
+            "positions": centres,
+            "omega_star": ps.iter().map(|p| p.omega / self.omega_scale()).collect::<Vec<_>>(),
+            "gaps_over_a": gaps.iter().map(|g| g / self.radius).collect::<Vec<_>>(),
+        });
+        (state, gaps)
     }
 }

@@ -4,12 +4,12 @@
 //! free surface's stretch, `TemporaryAle::background`) the harmonic part carries what the
 //! background leaves: d_m = background + harmonic.
 
-use super::locate::nearest_image;
 use super::{AleError, AleExtent, RigidMove, TemporaryAle};
 use crate::fem::element::{q1, Q1_IN_Q2};
 use crate::fem::linsolve::{DirectSolver, Pivoting, SolverKind};
 use crate::fem::sparse::{q1_pattern, SparseMatrix};
 use crate::mesh::{bounding_box, dilate, Mesh};
+use crate::periodic::nearest_image;
 
 /// Relative residual accepted from the Laplace solve.
 const LAPLACE_RESIDUAL_TOL: f64 = 1e-10;
@@ -205,7 +205,7 @@ impl TemporaryAle {
         for (e, xe) in mesh.element_coords.iter().enumerate() {
             let (lo, hi) = bounding_box(xe);
             for m in moves {
-                let c = nearest_image(m.center, [0.5 * (lo[0] + hi[0]), 0.0], period);
+                let c = nearest_image(m.center, 0.5 * (lo[0] + hi[0]), period);
                 let q = [c[0].clamp(lo[0], hi[0]), c[1].clamp(lo[1], hi[1])];
                 if (q[0] - c[0]).hypot(q[1] - c[1]) >= m.radius {
                     continue;

@@ -6,6 +6,7 @@ use super::AleError;
 use crate::fem::element::{q1, q2_map};
 use crate::fem::newton_inverse::{newton_inverse, Bound, Newton};
 use crate::mesh::{bounding_box, Mesh, Shape};
+use crate::periodic::nearest_image;
 
 /// Newton tolerance of the point location, in reference coordinates. Round-off limits ξ to about
 /// ε|x|/h (7e-14 for |x| = 2, h = 0.013): a tolerance of 1e-13 failed there (300×75 channel,
@@ -21,11 +22,6 @@ const INSIDE_TOL: f64 = 1e-9;
 /// between its nodes, ≈ 6e-6 in ξ for R = 4, Δθ = 2π/64, h_r = 0.25 (a mesh that follows a
 /// particle puts the new wall nodes there). Points missed in the interior are off by O(1).
 const CURVED_BOUNDARY_TOL: f64 = 1e-4;
-
-/// The periodic image of `x` (shifted by multiples of `period` in x) nearest to `near` in x.
-pub(super) fn nearest_image(x: [f64; 2], near: [f64; 2], period: Option<f64>) -> [f64; 2] {
-    crate::periodic::nearest_image(x, near[0], period)
-}
 
 /// How far the pre-image may lie from `x`, relative to the smallest side of `x`'s element, for
 /// the search to start in that element without locating x − d(x) first: the pre-image is then in
@@ -117,7 +113,11 @@ pub(super) fn pre_image(
             }
             tried.push(e);
             let xe = &mesh.element_coords[e];
-            let xc = nearest_image(x, xe[4], period.filter(|_| mesh.shape == Shape::Rectangle));
+            let xc = nearest_image(
+                x,
+                xe[4][0],
+                period.filter(|_| mesh.shape == Shape::Rectangle),
+            );
             let start = if (dx, dy) == (0, 0) { xic } else { [0.0, 0.0] };
             let map = ElementMap::of(mesh, xe);
             let Some(xi) = newton(&map, &mesh.element_vertices[e], d, xc, start) else {
@@ -126,7 +126,7 @@ pub(super) fn pre_image(
             let out = (xi[0].abs() - 1.0).max(xi[1].abs() - 1.0);
             if out <= INSIDE_TOL {
                 let p = map.at(xi).0;
-                return Ok((e, clamp(xi), nearest_image(p, x, period)));
+                return Ok((e, clamp(xi), nearest_image(p, x[0], period)));
             }
             if best.as_ref().is_none_or(|b| out < b.0) {
                 best = Some((out, e, xi));
@@ -138,7 +138,7 @@ pub(super) fn pre_image(
         Some((out, e, xi)) if out < CURVED_BOUNDARY_TOL => {
             let xi = clamp(xi);
             let p = ElementMap::of(mesh, &mesh.element_coords[e]).at(xi).0;
-            Ok((e, xi, nearest_image(p, x, period)))
+            Ok((e, xi, nearest_image(p, x[0], period)))
         }
         _ => Err(not_found()),
     }

@@ -36,9 +36,10 @@ mod tests;
 pub use extend::{extend_inside, EXTENSION_LAYERS};
 pub use stencil::{stencil_at, Remap, StencilWeights, STENCIL_LEN};
 
+use crate::periodic::nearest_image;
 pub use displacement::RING_ELEMENTS;
 use displacement::{laplace_elements, LaplaceSystem};
-use locate::{nearest_image, pre_image};
+use locate::pre_image;
 use stencil::stencil;
 
 use crate::fem::linsolve::SolveError;
@@ -353,7 +354,7 @@ impl TemporaryAle {
                     if let (Some(v), Some(at)) = (v, at_nm1.as_mut()) {
                         at[v] = stencil(older, e2, xi2, self.remap);
                     }
-                    let xnm1 = nearest_image(xnm1, xn, period);
+                    let xnm1 = nearest_image(xnm1, xn[0], period);
                     [
                         (bdf.c0 * x[0] - bdf.c1 * xn[0] + bdf.c2 * xnm1[0]) / dt,
                         (bdf.c0 * x[1] - bdf.c1 * xn[1] + bdf.c2 * xnm1[1]) / dt,

@@ -133,7 +133,7 @@ impl Reach {
     /// most [`MAX_AHEAD_RADII`] radii long; zero where it was or is outside the mesh.
     fn drifts(&self, mesh: &Mesh, particles: &[Particle]) -> Vec<[f64; 2]> {
         let per_move = LASTING_STEPS / self.age.max(1) as f64;
-        let nx = mesh.dims().0 as f64;
+        let period = mesh.periodic.then_some(mesh.dims().0 as f64);
         particles
             .iter()
             .zip(&self.start)
@@ -141,7 +141,6 @@ impl Reach {
                 let (Some(then), Some((now, to_length))) = (then, across(mesh, p.center)) else {
                     return [0.0; 2];
                 };
-                let period = mesh.periodic.then_some(nx);
                 let d = [fold(now[0] - then[0], period), now[1] - then[1]];
                 let j = to_length;
                 let d = [
