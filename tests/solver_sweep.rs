@@ -278,53 +278,59 @@ fn a_killed_adaptive_case_continues_with_the_steps_it_would_have_taken() {
         (30..200).contains(&steps),
         "{steps} steps: the controller should have grown the step from 0.01 (200 steps)"
     );
-    let store = Store::open_read_only(&dir.join("whole.db")).unwrap();
-    let t_last: f64 = store
-        .connection()
-        .query_row("SELECT max(t) FROM samples", [], |r| r.get(0))
-        .unwrap();
+    let row = |db: &str, sql: &str| -> Vec<Option<f64>> {
+        let store = Store::open_read_only(&dir.join(db)).unwrap();
+        let mut st = store.connection().prepare(sql).unwrap();
+        let n = st.column_count();
+        st.query_row([], |r| (0..n).map(|i| r.get(i)).collect())
+            .unwrap()
+    };
+    let t_last = row("whole.db", "SELECT max(t) FROM samples")[0].unwrap();
     assert!((t_last - 2.0).abs() < 1e-12, "ends at t_end, not {t_last}");
     // the steps redone are recorded with the outcome, the same for the resumed run
-    let rejected = |db: &str| -> Option<i64> {
-        Store::open_read_only(&dir.join(db))
-            .unwrap()
-            .connection()
-            .query_row(
-                "SELECT json_extract(final_json, '$.rejected_steps') FROM outcomes",
-                [],
-                |r| r.get(0),
-            )
-            .unwrap()
+    let rejected = |db| {
+        row(
+            db,
+            "SELECT json_extract(final_json, '$.rejected_steps') FROM outcomes",
+        )
     };
     let whole = rejected("whole.db");
     assert!(
-        whole.is_some(),
+        whole[0].is_some(),
         "an adaptive case records its rejected steps"
     );
     assert_eq!(rejected("killed.db"), whole);
     // and what its flow solves cost (this process: the resumed run counts from its resume)
-    let (solves, factorizations, placements): (i64, i64, i64) =
-        Store::open_read_only(&dir.join("whole.db"))
-            .unwrap()
-            .connection()
-            .query_row(
-                "SELECT json_extract(final_json, '$.flow_solver.solves'), \
-                 json_extract(final_json, '$.flow_solver.factorizations'), \
-                 json_extract(final_json, '$.flow_solver.placements') FROM outcomes",
-                [],
-                |r| Ok((r.get(0)?, r.get(1)?, r.get(2)?)),
-            )
-            .unwrap();
-    assert!(
-        solves as usize > steps,
-        "{solves} flow solves for {steps} steps"
-    );
+    let [solves, factorizations, placements] = row(
+        "whole.db",
+        "SELECT json_extract(final_json, '$.flow_solver.solves'), \
+         json_extract(final_json, '$.flow_solver.factorizations'), \
+         json_extract(final_json, '$.flow_solver.placements') FROM outcomes",
+    )[..] else {
+        panic!("three columns")
+    };
+    let [solves, factorizations, placements] =
+        [solves, factorizations, placements].map(|v| v.unwrap() as usize);
+    assert!(solves > steps, "{solves} flow solves for {steps} steps");
     // the particles move: the flow matrix is factored (by its band) every step, the far field
     // once per placement (at least the first)
     assert!(
-        factorizations as usize >= steps && placements >= 1 && placements < factorizations,
+        factorizations >= steps && placements >= 1 && placements < factorizations,
         "{factorizations} factorizations, {placements} placements for {steps} steps"
     );
+    // its CPU time, the estimates' calibration: within its wall time, the attempts' sum resumed
+    for db in ["whole.db", "killed.db"] {
+        let cost = row(
+            db,
+            "SELECT json_extract(o.final_json, '$.cpu_s'), c.wall_s \
+             FROM outcomes o JOIN cases c ON c.id = o.case_id",
+        );
+        let (cpu, wall) = (cost[0].unwrap(), cost[1].unwrap());
+        assert!(
+            cpu > 0.0 && cpu <= wall * 1.001,
+            "{db}: {cpu} s CPU, {wall} s wall"
+        );
+    }
 }
 
 /// Runs the two-particle sweep of `numerics_dt` (the `dt = …` of its numerics) uninterrupted,

@@ -3,7 +3,8 @@
 //! what is left of it when the sweep's database already has finished cases.
 //!
 //! Beside the bound, an expectation (`core-h ~`) from the database's finished cases
-//! ([`Expectation`]): their wall time in all over the work of their step bounds; for a case
+//! ([`Expectation`]): their core seconds in all (CPU time where a case recorded it, else wall
+//! time) over the work of their step bounds; for a case
 //! without early stop, its steps at its largest Δt at their cost per step taken.
 //!
 //! The rate is the one the cluster path asks SLURM for ([`Rate`]): the slowest finished case of

@@ -309,7 +309,7 @@ impl Store {
                 let sql = format!(
                     "SELECT c.case_hash, c.label, c.status, c.kind, c.string_length, c.t_decided, c.mean_gap,
                             json_extract(c.final_json, '$.gap_elements_min'), c.wall_s,
-                            c.error, c.owner, c.owner_pid FROM case_outcomes c{cond} ORDER BY c.id"
+                            json_extract(c.final_json, '$.cpu_s'), c.error, c.owner, c.owner_pid FROM case_outcomes c{cond} ORDER BY c.id"
                 );
                 let host = super::hostname();
                 let mut rows = self.rows(&sql, &args)?;
@@ -339,6 +339,7 @@ impl Store {
                     "mean_gap",
                     "gap_elements",
                     "wall_s",
+                    "cpu_s",
                     "error",
                 ];
                 Ok(Table {

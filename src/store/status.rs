@@ -172,15 +172,17 @@ impl Store {
         rows.collect::<rusqlite::Result<_>>().map_err(err)
     }
 
-    /// The finished cases that took steps: their case JSON (`params_json`), wall-clock seconds
-    /// and steps (with an extrusion's undisturbed prelude when the case stepped it itself: its
-    /// wall time holds them), for a measured cost per step.
+    /// The finished cases that took steps: their case JSON (`params_json`), core seconds (the
+    /// CPU time the outcome records, `final_json.cpu_s`, else — for cases run before it was
+    /// recorded, or where there is no thread clock — the wall-clock `wall_s`) and steps (with an
+    /// extrusion's undisturbed prelude when the case stepped it itself: its time holds them),
+    /// for a measured cost per step.
     pub fn finished_timings(&self) -> Result<Vec<(String, f64, u64)>> {
         let err = self.sql_err();
         let mut st = self
             .conn
             .prepare(
-                "SELECT c.params_json, c.wall_s,
+                "SELECT c.params_json, COALESCE(json_extract(o.final_json, '$.cpu_s'), c.wall_s),
                         c.steps + COALESCE(CASE WHEN json_extract(o.final_json,
                                                  '$.undisturbed_surface.shared') THEN 0
                                   ELSE json_extract(o.final_json, '$.undisturbed_surface.steps')

@@ -41,11 +41,11 @@ fn rounded_cell(v: &Value, digits: usize) -> String {
 }
 
 /// Significant digits of a column's floats in [`Format::Table`] (CSV and JSON keep every digit):
-/// times to 4 (t = 8.110), wall-clock seconds to 3, positions, velocities, ω* and gaps to 5; other
+/// times to 4 (t = 8.110), wall-clock and CPU seconds to 3, positions, velocities, ω* and gaps to 5; other
 /// numbers (parameters) to 6, which writes 0.30000000000000004 as 0.3.
 fn table_digits(column: &str) -> usize {
     match column {
-        "wall_s" => 3,
+        "wall_s" | "cpu_s" => 3,
         "t" | "t_decided" | "t_reached" | "t_end" | "t stored" => 4,
         "x" | "y" | "u" | "v" | "omega" | "theta" | "omega_star" | "r_star" | "r_star_final"
         | "gap_next_over_a" | "mean_gap" | "separation" | "swell" | "s_final" | "x_final"

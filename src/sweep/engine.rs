@@ -419,6 +419,11 @@ fn run_one(case: &PlannedCase, ctx: &CaseContext<'_>) -> Result<CaseRun, StoreEr
         // what an adaptive step cost beside the steps kept
         o.final_state["rejected_steps"] = serde_json::json!(n);
     }
+    if let (Some(o), Some(cpu)) = (outcome.as_mut(), rec.cpu_s()) {
+        // what the case cost in CPU time, without the waits `wall_s` holds (a loaded machine,
+        // a paused sweep): the estimates' calibration
+        o.final_state["cpu_s"] = serde_json::json!(cpu);
+    }
     if let (Some(o), Some(stats)) = (outcome.as_mut(), flow_solver) {
         // what the flow solves cost beyond their factorizations (in this process)
         o.final_state["flow_solver"] = serde_json::json!(stats);

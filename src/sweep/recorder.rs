@@ -6,6 +6,7 @@
 use std::path::PathBuf;
 use std::time::{Duration, Instant};
 
+use super::cpu_time::CpuClock;
 use super::engine::CaseContext;
 use super::progress::{CaseProgress, Progress};
 use crate::config::CaseSpec;
@@ -55,6 +56,8 @@ pub(super) struct Recorder<'a> {
     /// Wall-clock seconds spent on the case by earlier, interrupted attempts.
     wall_before: f64,
     started: Instant,
+    /// CPU seconds of this thread on the case, earlier attempts' included.
+    cpu: CpuClock,
 }
 
 impl<'a> Recorder<'a> {
@@ -93,12 +96,19 @@ impl<'a> Recorder<'a> {
             resumed_at: None,
             wall_before: 0.0,
             started: Instant::now(),
+            cpu: CpuClock::start(),
         }
     }
 
     /// Wall-clock seconds spent on the case so far, over all attempts.
     pub(super) fn wall_s(&self) -> f64 {
         self.wall_before + self.started.elapsed().as_secs_f64()
+    }
+
+    /// CPU seconds spent on the case so far, over all attempts, if known for all of them
+    /// ([`CpuClock`]): its cost without the time it waited.
+    pub(super) fn cpu_s(&self) -> Option<f64> {
+        self.cpu.seconds()
     }
 
     /// Continues an interrupted attempt: the classifier, the last sample and the solver state as
@@ -108,6 +118,7 @@ impl<'a> Recorder<'a> {
         self.stored_step = r.stored_step;
         self.last = Some(r.last);
         self.wall_before = r.wall_s;
+        self.cpu.continue_after(r.cpu_s);
         self.resumed_at = Some(r.step);
         self.resume_state = Some(r.solver.get().to_string());
     }
@@ -137,6 +148,7 @@ impl<'a> Recorder<'a> {
             last,
             classifier: self.classifier.clone(),
             wall_s: self.wall_s(),
+            cpu_s: self.cpu_s(),
             solver: serde_json::value::RawValue::from_string(state.to_string())
                 .map_err(|e| format!("solver state is not JSON: {e}"))?,
         };
@@ -478,6 +490,9 @@ pub(super) struct ResumeFile {
     last: Sample,
     classifier: Classifier,
     wall_s: f64,
+    /// CPU seconds so far (absent from files written before cases recorded it: unknown).
+    #[serde(default)]
+    cpu_s: Option<f64>,
     solver: Box<serde_json::value::RawValue>,
 }
 

@@ -1,7 +1,8 @@
 //! The resources a task asks for, unless given: memory from the case's estimate
 //! ([`crate::config::CaseSpec::memory_estimate`], measured peak memory per element), time from a
 //! measured cost per element and step — the slowest of the sweep database's finished cases
-//! (their `wall_s / (steps × elements × step cost)`) when it has any, else the benchmark of
+//! (their core seconds / (steps × elements × step cost); core seconds are the CPU time a case
+//! records, `final_json.cpu_s`, or its `wall_s` where it has none) when it has any, else the benchmark of
 //! docs/performance.md — times the case's steps, elements and [`CaseSpec::step_cost`].
 
 use crate::config::{CaseSpec, PlannedCase};
@@ -21,7 +22,7 @@ const TIME_OVERHEAD_S: f64 = 300.0;
 /// Where the time estimate's cost per element and step comes from.
 #[derive(Debug, Clone, PartialEq)]
 pub enum Rate {
-    /// The slowest finished case of the sweep database (`wall_s / (steps · elements · cost)`).
+    /// The slowest finished case of the sweep database (core seconds / (steps · elements · cost)).
     Measured {
         /// Seconds per element and step.
         seconds: f64,
@@ -33,12 +34,12 @@ pub enum Rate {
 }
 
 impl Rate {
-    /// The rate from finished cases `(case, wall seconds, steps)`, or the benchmark's without any.
+    /// The rate from finished cases `(case, core seconds, steps)`, or the benchmark's without any.
     pub fn from_finished(finished: &[(CaseSpec, f64, u64)]) -> Rate {
         let rates: Vec<f64> = finished
             .iter()
-            .filter(|(_, wall, steps)| *steps > 0 && *wall > 0.0)
-            .map(|(c, wall, steps)| wall / (*steps as f64 * c.mesh_elements() * c.step_cost()))
+            .filter(|(_, core, steps)| *steps > 0 && *core > 0.0)
+            .map(|(c, core, steps)| core / (*steps as f64 * c.mesh_elements() * c.step_cost()))
             .collect();
         match rates.iter().copied().reduce(f64::max) {
             Some(seconds) => Rate::Measured {
@@ -73,7 +74,7 @@ impl Rate {
 }
 
 /// What finished cases made of their bound, for an expected cost beside [`Rate`]'s upper one:
-/// their wall time in all over the work of their step bounds in all ([`case_steps_bound`] ×
+/// their core seconds in all over the work of their step bounds in all ([`case_steps_bound`] ×
 /// elements × step cost), seconds per element and bound step. It folds in everything the bound
 /// leaves out or overstates (early stops, adaptive steps above the initial Δt, rejected steps,
 /// resumptions, the machine's load), and it gives the finished cases' own total back exactly;
@@ -87,33 +88,33 @@ impl Rate {
 pub struct Expectation {
     /// Seconds per element and bound step.
     pub seconds: f64,
-    /// Seconds per element and step taken (the finished cases' wall time over their steps'
+    /// Seconds per element and step taken (the finished cases' core seconds over their steps'
     /// work): the cost of a case that runs to its end.
     pub per_step: f64,
-    /// The finished cases' wall time in all, in seconds.
-    pub wall: f64,
+    /// The finished cases' core seconds in all.
+    pub core: f64,
     /// How many finished cases were measured.
     pub cases: usize,
 }
 
 impl Expectation {
-    /// The expectation from finished cases `(case, wall seconds, steps)`; `None` without any.
+    /// The expectation from finished cases `(case, core seconds, steps)`; `None` without any.
     pub fn from_finished(finished: &[(CaseSpec, f64, u64)]) -> Option<Expectation> {
-        let (mut wall, mut work, mut taken, mut cases) = (0.0, 0.0, 0.0, 0);
+        let (mut core, mut work, mut taken, mut cases) = (0.0, 0.0, 0.0, 0);
         for (c, w, steps) in finished {
             let per_step = c.mesh_elements() * c.step_cost();
             let bound = case_steps_bound(c) * per_step;
             if *steps > 0 && *w > 0.0 && bound > 0.0 {
-                wall += w;
+                core += w;
                 work += bound;
                 taken += *steps as f64 * per_step;
                 cases += 1;
             }
         }
         (cases > 0).then(|| Expectation {
-            seconds: wall / work,
-            per_step: wall / taken,
-            wall,
+            seconds: core / work,
+            per_step: core / taken,
+            core,
             cases,
         })
     }
@@ -139,7 +140,7 @@ impl Expectation {
              Δt, {:.1} µs per element and step taken",
             self.seconds * 1e6,
             self.cases,
-            self.wall / 3600.0,
+            self.core / 3600.0,
             self.per_step * 1e6
         )
     }
@@ -151,7 +152,7 @@ pub fn case_steps_bound(spec: &CaseSpec) -> f64 {
     spec.steps() + prelude_steps(spec)
 }
 
-/// The finished cases of `store` that took steps, as (case, wall seconds, steps): what
+/// The finished cases of `store` that took steps, as (case, core seconds, steps): what
 /// [`Rate::from_finished`] measures (a case whose stored JSON no longer parses is left out).
 ///
 /// # Errors
@@ -160,9 +161,9 @@ pub fn finished_cases(store: &Store) -> crate::store::Result<Vec<(CaseSpec, f64,
     Ok(store
         .finished_timings()?
         .into_iter()
-        .filter_map(|(json, wall, steps)| {
+        .filter_map(|(json, core, steps)| {
             let spec = CaseSpec::from_value(serde_json::from_str(&json).ok()?).ok()?;
-            Some((spec, wall, steps))
+            Some((spec, core, steps))
         })
         .collect())
 }
@@ -269,7 +270,7 @@ mod tests {
         assert_eq!(Rate::from_finished(&[]), Rate::Benchmark);
     }
 
-    /// The expectation is the finished cases' wall time in all over their bounds' work: three
+    /// The expectation is the finished cases' core seconds in all over their bounds' work: three
     /// cases of 1000 bound steps on 10⁴ elements that took 8, 2 and 20 s expect 10 s per such
     /// case; none without finished cases.
     #[test]
@@ -282,7 +283,7 @@ mod tests {
         ];
         let e = Expectation::from_finished(&finished).unwrap();
         assert!((e.seconds - 1e-6).abs() < 1e-18, "{e:?}");
-        assert_eq!((e.wall, e.cases), (30.0, 3));
+        assert_eq!((e.core, e.cases), (30.0, 3));
         assert!((e.seconds_of(&c, 1000.0) - 10.0).abs() < 1e-9);
         assert!(e.source().contains("3 finished case(s)"), "{}", e.source());
         // 30 s over 750 steps of 10⁴ elements: 4 µs per element and step taken; a case that
