@@ -192,7 +192,7 @@ fn fictitious_domain_cuts(mesh: &Mesh, ls: &CircleUnion) -> Result<Vec<ElementCu
         };
         // φ is 1-Lipschitz: no boundary within the element's image radius of its centre
         let reach = map.image_radius([-1.0, -1.0], [1.0, 1.0]);
-        if ls.value(map.map([0.0, 0.0])).abs() >= reach {
+        if ls.value(map.centre()).abs() >= reach {
             out.push(ElementCut::Fluid);
             continue;
         }

@@ -87,7 +87,7 @@ impl CutQuadrature {
         ls: &L,
     ) -> CellLocation {
         let r = map.image_radius([-1.0, -1.0], [1.0, 1.0]);
-        let phi = ls.value(map.map([0.0, 0.0]));
+        let phi = ls.value(map.centre());
         if phi >= r {
             return CellLocation::Fluid;
         }

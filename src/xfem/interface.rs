@@ -155,7 +155,7 @@ impl InterfaceQuadrature {
         particles: &CircleUnion,
         out: &mut Vec<InterfacePoint>,
     ) -> Result<(), XfemError> {
-        let xc = map.map([0.0, 0.0]);
+        let xc = map.centre();
         let reach = map.image_radius([-1.0, -1.0], [1.0, 1.0]);
         for (i, circle) in particles.circles().iter().enumerate() {
             for center in particles.images_near(i, xc, reach) {
