@@ -233,6 +233,18 @@ fn queries_that_cannot_match_exit_2() {
         a.case = Some(id[..6].into())
     });
     assert_eq!(code, ExitCode::SUCCESS);
+    // every other table takes --case as its restriction to that case, and refuses an id of none
+    for what in [QueryWhat::Cases, QueryWhat::Final] {
+        let (code, json) = query(&db, what, |a| a.case = Some(id[..6].into()));
+        let rows: Vec<serde_json::Value> = serde_json::from_str(&json).unwrap();
+        assert_eq!(code, ExitCode::SUCCESS);
+        assert!(
+            !rows.is_empty() && rows.iter().all(|r| r["case"] == id),
+            "{what:?}: {json}"
+        );
+        let (code, _) = query(&db, what, |a| a.case = Some("%".into()));
+        assert_eq!(code, ExitCode::from(2), "{what:?} --case %");
+    }
 }
 
 /// Issue 28 item 9: `--jobs 0` and `--state-every nan` were accepted. Now they are usage errors

@@ -144,8 +144,8 @@ pub(super) fn query_boundaries(
 ) -> anyhow::Result<ExitCode> {
     if !filters.is_empty() {
         return invalid(
-            &"--where does not apply to boundaries (a bracket needs every value of its line); \
-              use --sweep",
+            &"--where and --case do not apply to boundaries (a bracket needs every value of its \
+              line); use --sweep",
         );
     }
     // a reader: read-only, never creates or changes the file

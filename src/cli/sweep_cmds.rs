@@ -136,7 +136,7 @@ pub struct QueryArgs {
     /// Filter `column=value` (repeatable), e.g. `--where alpha=0.01`.
     #[arg(long = "where", value_name = "COLUMN=VALUE")]
     pub filters: Vec<String>,
-    /// Case id (prefix) for `trajectory`.
+    /// Case id (prefix): the case of `trajectory`; every other table only its case(s).
     #[arg(long)]
     pub case: Option<String>,
     /// Parameter column ordering `final-r` [default: r0].
@@ -381,10 +381,14 @@ pub fn run_query(args: &QueryArgs) -> anyhow::Result<ExitCode> {
 /// Handler of `xpflow query` writing to `out` (testable).
 pub fn run_query_to(args: &QueryArgs, out: &mut dyn Write) -> anyhow::Result<ExitCode> {
     let filters: Result<Vec<Filter>, String> = args.filters.iter().map(|f| f.parse()).collect();
-    let filters = match filters {
+    let mut filters = match filters {
         Ok(f) => f,
         Err(e) => return invalid(&e),
     };
+    if let (Some(id), false) = (&args.case, args.what == QueryWhat::Trajectory) {
+        // every other table restricted to the case(s) of that id prefix
+        filters.push(Filter::case(id));
+    }
     let kind = match args.what {
         QueryWhat::Strings => QueryKind::StringFormation,
         QueryWhat::Regime => QueryKind::Regime,

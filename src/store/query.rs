@@ -74,8 +74,21 @@ const FILTER_REL_TOL: f64 = 1e-9;
 pub struct Filter {
     /// Whitelisted column.
     pub column: &'static str,
-    /// Value: numbers match within a relative 1e-9, text exactly.
+    /// Value: numbers match within a relative 1e-9, text exactly (or as a prefix).
     pub value: Value,
+    /// A text value matches the stored values it begins (a case id's prefix).
+    pub prefix: bool,
+}
+
+impl Filter {
+    /// The cases whose id begins with `id` (`xpflow query --case ID`).
+    pub fn case(id: &str) -> Filter {
+        Filter {
+            column: "case_hash",
+            value: Value::from(id),
+            prefix: true,
+        }
+    }
 }
 
 impl std::str::FromStr for Filter {
@@ -119,7 +132,11 @@ impl std::str::FromStr for Filter {
                 }
             }
         };
-        Ok(Filter { column, value })
+        Ok(Filter {
+            column,
+            value,
+            prefix: false,
+        })
     }
 }
 
@@ -170,7 +187,12 @@ fn where_clause(sweep: Option<&str>, filters: &[Filter]) -> (String, Vec<SqlValu
             }
             None => {
                 args.push(SqlValue::Text(f.value.as_str().unwrap_or_default().into()));
-                sql += &format!(" AND c.{} = ?{}", f.column, args.len());
+                let (c, i) = (f.column, args.len());
+                sql += &if f.prefix {
+                    format!(" AND substr(c.{c}, 1, length(?{i})) = ?{i}")
+                } else {
+                    format!(" AND c.{c} = ?{i}")
+                };
             }
         }
     }
@@ -188,6 +210,24 @@ fn json_of(v: SqlValue) -> Value {
 }
 
 impl Store {
+    /// A case id prefix that names at least one case (a query restricted to none would print
+    /// an empty table for a mistyped id).
+    fn check_case_prefix(&self, id: &str) -> Result<()> {
+        if id.is_empty() {
+            return Err(StoreError::BadQuery(
+                "--case needs a case id (see `xpflow query cases`)".into(),
+            ));
+        }
+        let n = self.rows(
+            "SELECT count(*) FROM cases WHERE substr(case_hash, 1, length(?1)) = ?1",
+            &[SqlValue::Text(id.into())],
+        )?;
+        match n.first().and_then(|r| r[0].as_i64()) {
+            Some(0) => Err(StoreError::BadQuery(format!("no case with id `{id}`"))),
+            _ => Ok(()),
+        }
+    }
+
     /// Runs a query over all sweeps or the named one, restricted by `filters`.
     pub fn query(
         &self,
@@ -197,6 +237,13 @@ impl Store {
     ) -> Result<Table> {
         if let Some(name) = sweep {
             self.check_sweep(name)?;
+        }
+        for id in filters
+            .iter()
+            .filter(|f| f.prefix)
+            .map(|f| f.value.as_str())
+        {
+            self.check_case_prefix(id.unwrap_or_default())?;
         }
         let (cond, args) = where_clause(sweep, filters);
         match kind {

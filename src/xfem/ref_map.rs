@@ -417,7 +417,10 @@ mod tests {
             curved.image_radius(lo, hi),
             sampled_image_radius(&curved, lo, hi),
         );
-        assert!((read - sampled).abs() <= 1e-15 * sampled, "{read} / {sampled}");
+        assert!(
+            (read - sampled).abs() <= 1e-15 * sampled,
+            "{read} / {sampled}"
+        );
         assert_eq!(curved.centre(), curved.map([0.0, 0.0]));
     }
 }
