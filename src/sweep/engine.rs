@@ -419,9 +419,10 @@ fn run_one(case: &PlannedCase, ctx: &CaseContext<'_>) -> Result<CaseRun, StoreEr
         // what an adaptive step cost beside the steps kept
         o.final_state["rejected_steps"] = serde_json::json!(n);
     }
-    if let (Some(o), Some(cpu)) = (outcome.as_mut(), rec.cpu_s()) {
+    if let (Some(o), Some(cpu)) = (outcome.as_mut(), rec.cpu_s().filter(|&c| c > 0.0)) {
         // what the case cost in CPU time, without the waits `wall_s` holds (a loaded machine,
-        // a paused sweep): the estimates' calibration
+        // a paused sweep): the estimates' calibration (a case too short for the clock, which
+        // the kernel advances at scheduling events, reads zero: left out, as unknown)
         o.final_state["cpu_s"] = serde_json::json!(cpu);
     }
     if let (Some(o), Some(stats)) = (outcome.as_mut(), flow_solver) {
