@@ -11,7 +11,8 @@ use std::process::ExitCode;
 use std::time::Duration;
 
 use clap::Parser;
-use xpflow::cli::sweep_cmds::{run_query_to, run_sweep_with, QueryArgs, QueryWhat, SweepArgs};
+use xpflow::cli::query_cmds::{run_query_to, QueryArgs, QueryWhat};
+use xpflow::cli::sweep_cmds::{run_sweep_with, SweepArgs};
 use xpflow::cli::Cli;
 use xpflow::config::SweepSpec;
 use xpflow::observe::OutcomeKind;

@@ -11,7 +11,9 @@ use std::sync::atomic::{AtomicUsize, Ordering};
 use std::sync::Arc;
 use std::time::Duration;
 
-use xpflow::cli::sweep_cmds::{run_status_to, run_sweep_with, QueryWhat, StatusArgs, SweepArgs};
+use xpflow::cli::query_cmds::QueryWhat;
+use xpflow::cli::status_cmds::{run_status_to, StatusArgs};
+use xpflow::cli::sweep_cmds::{run_sweep_with, SweepArgs};
 use xpflow::observe::OutcomeKind;
 use xpflow::store::Store;
 use xpflow::sweep::{FakeBehaviour, FakeRunner};

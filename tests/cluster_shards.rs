@@ -9,7 +9,8 @@ use std::path::{Path, PathBuf};
 use std::process::ExitCode;
 
 use xpflow::cli::cluster::{merge_to, run_case_with, MergeArgs, RunCaseArgs};
-use xpflow::cli::sweep_cmds::{run_status_to, run_sweep_with, StatusArgs};
+use xpflow::cli::status_cmds::{run_status_to, StatusArgs};
+use xpflow::cli::sweep_cmds::run_sweep_with;
 use xpflow::config::SweepSpec;
 use xpflow::observe::OutcomeKind;
 use xpflow::store::Store;

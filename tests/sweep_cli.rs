@@ -6,9 +6,9 @@ use common::Scratch;
 use std::path::Path;
 use std::process::ExitCode;
 
-use xpflow::cli::sweep_cmds::{
-    run_query_to, run_status_to, run_sweep_with, QueryArgs, QueryWhat, StatusArgs, SweepArgs,
-};
+use xpflow::cli::query_cmds::{run_query_to, QueryArgs, QueryWhat};
+use xpflow::cli::status_cmds::{run_status_to, StatusArgs};
+use xpflow::cli::sweep_cmds::{run_sweep_with, SweepArgs};
 use xpflow::config::{ConfigError, SweepSpec};
 use xpflow::observe::OutcomeKind;
 use xpflow::store::{Format, Store};
@@ -297,6 +297,61 @@ fn only_the_selected_cases_run() {
     };
     assert_eq!(status(&wanted), "done");
     assert_eq!(status(&cases[0].id), "pending");
+}
+
+/// `--where wi=2` runs the sweep's Wi = 2 cases alone; a column that is not a parameter, a value
+/// of no case, or nothing left beside `--case` is refused before anything is written.
+#[test]
+fn where_selects_cases_by_their_parameters() {
+    let dir = scratch("where");
+    let file = dir.join("s.toml");
+    std::fs::write(&file, GOOD).unwrap();
+    let db = dir.join("r.db");
+    let cases = expand(&SweepSpec::from_file(&file).unwrap()).unwrap();
+    let wi = |i: usize| cases[i].spec.fluid.wi;
+    let (one, two) = if wi(0) == 2.0 { (1, 0) } else { (0, 1) };
+    let runner = FakeRunner::new(|_| FakeBehaviour::Produce(OutcomeKind::Repel));
+    let with = |filters: &[&str], ids: &[&str]| SweepArgs {
+        filters: filters.iter().map(|f| f.to_string()).collect(),
+        cases: ids.iter().map(|f| f.to_string()).collect(),
+        ..args(&file, &db)
+    };
+    for (filters, ids) in [
+        (&["status=done"][..], &[][..]),
+        (&["wi=3"], &[]),
+        (&["wi=two"], &[]),
+        (&["wi=2"], &[cases[one].id.as_str()]),
+    ] {
+        let code = run_sweep_with(&with(filters, ids), &runner, &mut Vec::new()).unwrap();
+        assert_eq!(
+            code,
+            ExitCode::from(2),
+            "--where {filters:?} --case {ids:?}"
+        );
+        assert!(!db.exists(), "{filters:?}: nothing may be written");
+    }
+    // 2.0000000001 is 2 within the filter's relative 1e-9
+    let code = run_sweep_with(
+        &with(&["wi=2.0000000001", "n_particles=3"], &[]),
+        &runner,
+        &mut Vec::new(),
+    );
+    assert_eq!(code.unwrap(), ExitCode::SUCCESS);
+    let store = Store::open_read_only(&db).unwrap();
+    let status = |i: usize| -> String {
+        store
+            .connection()
+            .query_row(
+                "SELECT status FROM cases WHERE case_hash = ?1",
+                [&cases[i].id],
+                |r| r.get(0),
+            )
+            .unwrap()
+    };
+    assert_eq!(
+        (status(two), status(one)),
+        ("done".into(), "pending".into())
+    );
 }
 
 #[test]

@@ -8,7 +8,7 @@ use std::path::{Path, PathBuf};
 use std::sync::Mutex;
 use std::time::{Duration, Instant};
 
-use xpflow::cli::sweep_cmds::{run_status_to, StatusArgs};
+use xpflow::cli::status_cmds::{run_status_to, StatusArgs};
 use xpflow::config::{CaseSpec, SweepSpec};
 use xpflow::observe::OutcomeKind;
 use xpflow::store::query::QueryKind;

@@ -12,7 +12,8 @@ use std::process::ExitCode;
 use std::sync::{Arc, Mutex};
 use std::time::{Duration, Instant};
 
-use xpflow::cli::sweep_cmds::{run_query_to, run_sweep_with, QueryArgs, QueryWhat};
+use xpflow::cli::query_cmds::{run_query_to, QueryArgs, QueryWhat};
+use xpflow::cli::sweep_cmds::run_sweep_with;
 use xpflow::config::{CaseSpec, SweepSpec};
 use xpflow::observe::OutcomeKind;
 use xpflow::store::{Format, Store, Table};

@@ -2,7 +2,7 @@
 
 use clap::{Parser, Subcommand, ValueEnum};
 
-use super::sweep_cmds;
+use super::{query_cmds, status_cmds, sweep_cmds};
 use crate::fem::linsolve::SolverKind;
 
 /// xpflow: rigid particles in viscoelastic fluids (XFEM), with parameter sweeps.
@@ -29,10 +29,10 @@ pub enum Command {
     /// Expand a sweep file into cases and run them (resumable).
     Sweep(sweep_cmds::SweepArgs),
     /// Print results tables from a results database.
-    Query(sweep_cmds::QueryArgs),
+    Query(query_cmds::QueryArgs),
     /// Per-sweep counts of done / running / failed / pending cases (and, with --submission,
     /// where each case of a cluster submission stands).
-    Status(sweep_cmds::StatusArgs),
+    Status(status_cmds::StatusArgs),
     /// One task of a cluster submission: the case on line --index of a manifest, run into its
     /// own shard (resuming an earlier task's).
     RunCase(super::cluster::RunCaseArgs),

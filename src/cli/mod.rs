@@ -8,8 +8,10 @@ mod cylinder;
 mod estimate;
 pub mod export;
 mod extrudate;
+pub mod query_cmds;
 mod run;
 mod search_cmds;
+pub mod status_cmds;
 pub mod sweep_cmds;
 mod tries_cmds;
 mod validate;
@@ -28,8 +30,8 @@ pub fn run(cli: Cli) -> anyhow::Result<ExitCode> {
     match cli.command {
         Command::Run { case, resolved } => run::run_case(&case, resolved),
         Command::Sweep(args) => sweep_cmds::run_sweep(&args),
-        Command::Query(args) => sweep_cmds::run_query(&args),
-        Command::Status(args) => sweep_cmds::run_status(&args),
+        Command::Query(args) => query_cmds::run_query(&args),
+        Command::Status(args) => status_cmds::run_status(&args),
         Command::RunCase(args) => cluster::run_case(&args),
         Command::Merge(args) => cluster::merge(&args),
         Command::Export(args) => export::run_export(&args),

@@ -7,8 +7,9 @@ use std::process::ExitCode;
 
 use anyhow::Context;
 
+use super::query_cmds::QueryArgs;
 use super::sweep_cmds::{
-    invalid, list_cases, print_resolved, sweep_options, QueryArgs, SweepArgs, EXIT_INVALID,
+    invalid, list_cases, print_resolved, sweep_options, SweepArgs, EXIT_INVALID,
 };
 use crate::config::{ConfigError, PlannedCase, SweepSpec};
 use crate::store::query::Filter;

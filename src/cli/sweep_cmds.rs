@@ -11,9 +11,9 @@ use std::process::ExitCode;
 
 use anyhow::Context;
 
-use crate::config::{PlannedCase, SweepSpec};
-use crate::store::query::{Filter, QueryKind, FILTER_COLUMNS};
-use crate::store::{Format, Store, Table};
+use crate::config::{PlannedCase, SweepSpec, PARAMETER_COLUMNS};
+use crate::store::query::Filter;
+use crate::store::{Format, Table};
 use crate::sweep::engine::SweepError;
 use crate::sweep::expand::expand_at_most;
 use crate::sweep::progress::ProgressMode;
@@ -55,6 +55,12 @@ pub struct SweepArgs {
     /// sweep file with a `[search]` or `[tries]` section.
     #[arg(long = "case", value_name = "ID", value_delimiter = ',')]
     pub cases: Vec<String>,
+    /// Run only the cases whose parameters match `COLUMN=VALUE` (repeatable, all must match):
+    /// one of the database's parameter columns (wi alpha beta delta n_particles a h l lx ly r0 eps
+    /// mesh dt t_end; numbers within a relative 1e-9), e.g. `--where wi=1` for one column of a
+    /// study; with `--case`, the cases both select. As `--case` otherwise.
+    #[arg(long = "where", value_name = "COLUMN=VALUE")]
+    pub filters: Vec<String>,
     /// Minutes between saved solver states of a running case: a killed case continues from its
     /// last one (0: after every step).
     #[arg(long, default_value_t = 5.0, value_parser = minutes)]
@@ -96,69 +102,6 @@ fn gigabytes(s: &str) -> Result<f64, String> {
     }
 }
 
-/// What `xpflow query` tabulates.
-#[derive(Debug, Clone, Copy, PartialEq, Eq, clap::ValueEnum)]
-pub enum QueryWhat {
-    /// String formation, Wi × N (thesis Table 5.2).
-    Strings,
-    /// Outcome kinds, δ × Wi (thesis Fig. 5.26).
-    Regime,
-    /// Final r* of Couette cases by a parameter (`--by`).
-    FinalR,
-    /// One row per case with status and outcome.
-    Cases,
-    /// Final state of every particle of every decided case: position, ω*, gap to the next particle
-    /// along the chain (thesis 5.6.3 final positions, 5.7.2 terminal ω* and gaps); for a run that
-    /// went on past its decision (no early stop) also its state at the end (`state` = `end`).
-    Final,
-    /// Raw samples of one case (`--case ID`).
-    Trajectory,
-    /// Extrusion cases (thesis §6.4–6.5): swell ratio, the particle's final separation s from the
-    /// undisturbed surface and its final position.
-    Extrusion,
-    /// The brackets a search found: per combination of the other axes, each boundary with the
-    /// values and outcomes on both sides (sweeps with a `[search]` section).
-    Boundaries,
-}
-
-/// `xpflow query WHAT`: tables from a results database.
-#[derive(Debug, Clone, clap::Args)]
-pub struct QueryArgs {
-    /// What to tabulate.
-    #[arg(value_enum)]
-    pub what: QueryWhat,
-    /// Results database.
-    #[arg(long)]
-    pub db: PathBuf,
-    /// Only cases of this sweep.
-    #[arg(long)]
-    pub sweep: Option<String>,
-    /// Filter `column=value` (repeatable), e.g. `--where alpha=0.01`.
-    #[arg(long = "where", value_name = "COLUMN=VALUE")]
-    pub filters: Vec<String>,
-    /// Case id (prefix): the case of `trajectory`; every other table only its case(s).
-    #[arg(long)]
-    pub case: Option<String>,
-    /// Parameter column ordering `final-r` [default: r0].
-    #[arg(long, default_value = "r0")]
-    pub by: String,
-    /// Output format.
-    #[arg(long, value_enum, default_value_t = Format::Table)]
-    pub format: Format,
-}
-
-/// `xpflow status`: per-sweep case counts.
-#[derive(Debug, Clone, clap::Args)]
-pub struct StatusArgs {
-    /// Results databases [default: every results/*.db, unless --submission is given].
-    #[arg(long)]
-    pub db: Vec<PathBuf>,
-    /// Submission directories of `xpflow sweep --slurm`: each case done / failed / running /
-    /// pending / interrupted / not run, from its shards, markers and squeue.
-    #[arg(long)]
-    pub submission: Vec<PathBuf>,
-}
-
 /// Handler of `xpflow sweep` with the solver's runner.
 pub fn run_sweep(args: &SweepArgs) -> anyhow::Result<ExitCode> {
     let runner = default_runner();
@@ -175,7 +118,7 @@ pub fn run_sweep_with(
         Ok(s) => s,
         Err(e) => return invalid(&e),
     };
-    if !args.cases.is_empty() {
+    if !args.cases.is_empty() || !args.filters.is_empty() {
         let with = if spec.search.is_some() {
             Some("a sweep file with a [search] section (its cases are chosen as it runs)")
         } else if spec.tries.is_some() {
@@ -187,7 +130,7 @@ pub fn run_sweep_with(
         };
         if let Some(with) = with {
             return invalid(&format!(
-                "{}: --case cannot be used with {with}",
+                "{}: --case and --where cannot be used with {with}",
                 args.file.display()
             ));
         }
@@ -202,7 +145,9 @@ pub fn run_sweep_with(
     if spec.tries.is_some() {
         return super::tries_cmds::run(args, &spec, &cases, runner, out);
     }
-    let only = match select_cases(&cases, &args.cases) {
+    let only = match select_cases(&cases, &args.cases)
+        .and_then(|ids| select_by_parameters(&cases, &args.filters, ids))
+    {
         Ok(only) => only,
         Err(e) => return invalid(&format!("{}: {e}", args.file.display())),
     };
@@ -216,7 +161,7 @@ pub fn run_sweep_with(
         if listed.len() < cases.len() {
             writeln!(
                 out,
-                "{} of the {} cases in sweep {} (--case)",
+                "{} of the {} cases in sweep {} (selected)",
                 listed.len(),
                 cases.len(),
                 spec.name
@@ -247,7 +192,7 @@ pub fn run_sweep_with(
                     String::new()
                 };
                 let left_out = if summary.left_out > 0 {
-                    format!(", {} not selected (--case)", summary.left_out)
+                    format!(", {} not selected", summary.left_out)
                 } else {
                     String::new()
                 };
@@ -319,6 +264,57 @@ pub(super) fn select_cases(
     Ok(Some(only))
 }
 
+/// The cases `--where` selects among `ids` (all cases when `None`): those whose every filter
+/// matches its parameter ([`CaseSpec::parameter_columns`](crate::config::CaseSpec::parameter_columns));
+/// `ids` unchanged without filters. An unknown or non-parameter column, a value of the wrong
+/// type, or a selection of no case is an error.
+pub(super) fn select_by_parameters(
+    cases: &[PlannedCase],
+    filters: &[String],
+    ids: Option<std::collections::BTreeSet<String>>,
+) -> Result<Option<std::collections::BTreeSet<String>>, String> {
+    if filters.is_empty() {
+        return Ok(ids);
+    }
+    let mut parsed = Vec::with_capacity(filters.len());
+    for f in filters {
+        let filter: Filter = f.parse().map_err(|e| format!("--where: {e}"))?;
+        if !PARAMETER_COLUMNS.contains(&filter.column) {
+            return Err(format!(
+                "--where {f}: a sweep selects its cases by their parameters, one of {}",
+                PARAMETER_COLUMNS.join(", ")
+            ));
+        }
+        parsed.push(filter);
+    }
+    let only: std::collections::BTreeSet<String> = cases
+        .iter()
+        .filter(|c| ids.as_ref().is_none_or(|ids| ids.contains(&c.id)))
+        .filter(|c| {
+            let columns = c.spec.parameter_columns();
+            parsed.iter().all(|f| {
+                columns
+                    .iter()
+                    .find(|(name, _)| *name == f.column)
+                    .is_some_and(|(_, v)| f.matches(v))
+            })
+        })
+        .map(|c| c.id.clone())
+        .collect();
+    if only.is_empty() {
+        return Err(format!(
+            "--where {}: no case of the sweep{} matches (`--dry-run` lists them)",
+            filters.join(" --where "),
+            if ids.is_some() {
+                " given by --case"
+            } else {
+                ""
+            }
+        ));
+    }
+    Ok(Some(only))
+}
+
 /// The `--dry-run` listing of planned cases: index, id, label.
 pub(super) fn list_cases(cases: &[PlannedCase], out: &mut dyn Write) -> std::io::Result<()> {
     let mut t = Table {
@@ -371,230 +367,4 @@ pub(super) fn sweep_options(args: &SweepArgs, spec: &SweepSpec) -> SweepOptions 
 pub(super) fn invalid(e: &dyn std::fmt::Display) -> anyhow::Result<ExitCode> {
     eprintln!("error: {e}");
     Ok(ExitCode::from(EXIT_INVALID))
-}
-
-/// Handler of `xpflow query`.
-pub fn run_query(args: &QueryArgs) -> anyhow::Result<ExitCode> {
-    run_query_to(args, &mut std::io::stdout())
-}
-
-/// Handler of `xpflow query` writing to `out` (testable).
-pub fn run_query_to(args: &QueryArgs, out: &mut dyn Write) -> anyhow::Result<ExitCode> {
-    let filters: Result<Vec<Filter>, String> = args.filters.iter().map(|f| f.parse()).collect();
-    let mut filters = match filters {
-        Ok(f) => f,
-        Err(e) => return invalid(&e),
-    };
-    if let (Some(id), false) = (&args.case, args.what == QueryWhat::Trajectory) {
-        // every other table restricted to the case(s) of that id prefix
-        filters.push(Filter::case(id));
-    }
-    let kind = match args.what {
-        QueryWhat::Strings => QueryKind::StringFormation,
-        QueryWhat::Regime => QueryKind::Regime,
-        QueryWhat::Cases => QueryKind::Cases,
-        QueryWhat::Final => QueryKind::Final,
-        QueryWhat::Extrusion => QueryKind::Extrusion,
-        QueryWhat::FinalR => match FILTER_COLUMNS.iter().find(|c| **c == args.by) {
-            Some(c) => QueryKind::FinalRStar(c),
-            None => {
-                return invalid(&format!(
-                    "--by {}: use one of {}",
-                    args.by,
-                    FILTER_COLUMNS.join(", ")
-                ))
-            }
-        },
-        QueryWhat::Boundaries => return super::search_cmds::query_boundaries(args, &filters, out),
-        QueryWhat::Trajectory => match &args.case {
-            Some(c) => QueryKind::Trajectory(c.clone()),
-            None => return invalid(&"trajectory needs --case ID (see `xpflow query cases`)"),
-        },
-    };
-    // a reader: read-only, never creates or changes the file
-    let store = match Store::open_read_only(&args.db) {
-        Ok(s) => s,
-        Err(e) if e.is_bad_input() => return invalid(&e),
-        Err(e) => return Err(e.into()),
-    };
-    match store.query(&kind, args.sweep.as_deref(), &filters) {
-        Ok(t) => {
-            write!(out, "{}", t.render(args.format))?;
-            Ok(ExitCode::SUCCESS)
-        }
-        Err(e) if e.is_bad_input() => invalid(&e),
-        Err(e) => Err(e.into()),
-    }
-}
-
-/// Handler of `xpflow status`.
-pub fn run_status(args: &StatusArgs) -> anyhow::Result<ExitCode> {
-    run_status_to(args, &mut std::io::stdout())
-}
-
-/// Handler of `xpflow status` writing to `out` (testable).
-pub fn run_status_to(args: &StatusArgs, out: &mut dyn Write) -> anyhow::Result<ExitCode> {
-    for dir in &args.submission {
-        if let Err(e) = super::cluster::submission_status(dir, out) {
-            return invalid(&e);
-        }
-    }
-    if !args.submission.is_empty() && args.db.is_empty() {
-        return Ok(ExitCode::SUCCESS);
-    }
-    let dbs: Vec<PathBuf> = if args.db.is_empty() {
-        let mut v: Vec<PathBuf> = std::fs::read_dir("results")
-            .map(|d| {
-                d.filter_map(|e| e.ok().map(|e| e.path()))
-                    .filter(|p| p.extension().is_some_and(|e| e == "db"))
-                    .collect()
-            })
-            .unwrap_or_default();
-        v.sort();
-        v
-    } else {
-        args.db.clone()
-    };
-    let mut running = Vec::new();
-    let mut failed = Vec::new();
-    let mut t = Table {
-        columns: [
-            "database", "sweep", "cases", "done", "running", "failed", "pending",
-        ]
-        .map(String::from)
-        .to_vec(),
-        rows: Vec::new(),
-    };
-    for db in &dbs {
-        // a reader: read-only, never creates or changes the file
-        let store = match Store::open_read_only(db) {
-            Ok(s) => s,
-            Err(e) if e.is_bad_input() => return invalid(&e),
-            Err(e) => return Err(e.into()),
-        };
-        running.extend(store.running_cases()?.into_iter().map(|c| (db, c)));
-        failed.extend(store.failed_cases()?.into_iter().map(|c| (db, c)));
-        for c in store.counts(None)? {
-            t.rows.push(vec![
-                db.display().to_string().into(),
-                c.name.into(),
-                c.total.into(),
-                c.done.into(),
-                c.running.into(),
-                c.failed.into(),
-                c.pending.into(),
-            ]);
-        }
-    }
-    write!(out, "{}", t.render(Format::Table))?;
-    // the running (or interrupted) cases: how far they got and where a rerun continues
-    let mut r = Table {
-        columns: [
-            "database",
-            "sweep",
-            "case",
-            "label",
-            "process",
-            "t stored",
-            "t_end",
-            "Δt",
-            "saved state",
-        ]
-        .map(String::from)
-        .to_vec(),
-        rows: Vec::new(),
-    };
-    for (db, c) in running {
-        let saved = match crate::sweep::engine::saved_state(db, &c.hash) {
-            Some((step, t, _)) => format!("step {step}, t = {t:.2}"),
-            None => match crate::sweep::engine::saved_prelude(db, &c.hash) {
-                Some(steps) => format!("prelude step {steps} (t = 0 follows it)"),
-                None => "none (restarts at t = 0)".into(),
-            },
-        };
-        let process = match c.alive {
-            Some(true) => "running",
-            Some(false) => "interrupted",
-            None => "other host",
-        };
-        r.rows.push(vec![
-            db.display().to_string().into(),
-            c.sweep.into(),
-            c.hash.into(),
-            c.label.into(),
-            process.to_string().into(),
-            c.t_stored
-                .map_or_else(|| "-".to_string(), |t| format!("{t:.2}"))
-                .into(),
-            c.t_end
-                .map_or_else(|| "-".to_string(), |t| format!("{t}"))
-                .into(),
-            c.dt_recent
-                .map_or_else(|| "-".to_string(), |dt| format!("{dt:.4}"))
-                .into(),
-            saved.into(),
-        ]);
-    }
-    if !r.rows.is_empty() {
-        writeln!(
-            out,
-            "\nrunning or interrupted cases (rerun the sweep to continue the interrupted ones):"
-        )?;
-        write!(out, "{}", r.render(Format::Table))?;
-    }
-    write_failed(&failed, out)?;
-    Ok(ExitCode::SUCCESS)
-}
-
-/// The failed cases of `xpflow status`: why, how far they got, and the state each kept
-/// (`sweep::engine::keep_failed_state`).
-fn write_failed(
-    failed: &[(&PathBuf, crate::store::FailedCase)],
-    out: &mut dyn Write,
-) -> anyhow::Result<()> {
-    if failed.is_empty() {
-        return Ok(());
-    }
-    let mut f = Table {
-        columns: [
-            "database",
-            "sweep",
-            "case",
-            "label",
-            "status",
-            "t reached",
-            "kept state",
-            "error",
-        ]
-        .map(String::from)
-        .to_vec(),
-        rows: Vec::new(),
-    };
-    for (db, c) in failed {
-        let kept = match crate::sweep::engine::saved_failed_state(db, &c.hash) {
-            Some((step, t, _)) => format!("step {step}, t = {t:.2}"),
-            None => "none (restarts at t = 0)".into(),
-        };
-        f.rows.push(vec![
-            db.display().to_string().into(),
-            c.sweep.clone().into(),
-            c.hash.clone().into(),
-            c.label.clone().into(),
-            c.kind.clone().into(),
-            c.t_reached
-                .map_or_else(|| "-".to_string(), |t| format!("{t:.2}"))
-                .into(),
-            kept.into(),
-            c.error.clone().unwrap_or_default().into(),
-        ]);
-    }
-    writeln!(
-        out,
-        "\nfailed or diverged cases (`xpflow sweep FILE --retry-failed` runs the failed ones \
-         again from t = 0; a kept state, <db dir>/<db stem>/<case>.failed.resume.json, \
-         reproduces the trouble, or, renamed to <case>.resume.json, lets the retry continue \
-         from it):"
-    )?;
-    write!(out, "{}", f.render(Format::Table))?;
-    Ok(())
 }

@@ -1,12 +1,63 @@
 //! What a case implies beyond its fields: the particle radius and count, its mesh (base and
 //! following), the initial particle positions, the solver's frame, its rates and time scales,
-//! and the parameters of its set-up (δ, ε, r0*, spacing, channel).
+//! and the parameters of its set-up (δ, ε, r0*, spacing, channel) as the database's columns hold
+//! them ([`PARAMETER_COLUMNS`]).
+
+use serde_json::{json, Value};
 
 use super::case::{CaseSpec, FrameChoice, Geometry, Layout, Model, DEFAULT_EXTRUSION_HEIGHT};
 use crate::geometry::{layout, Extrusion};
 use crate::mesh::{Axis, FollowingMesh, Mesh, Shape};
 
+/// The columns of a case's parameters in the results database (`cases`), in the order of
+/// [`CaseSpec::parameter_columns`]: what `xpflow query --where` and `xpflow sweep --where` select by.
+pub const PARAMETER_COLUMNS: [&str; 15] = [
+    "wi",
+    "alpha",
+    "beta",
+    "delta",
+    "n_particles",
+    "a",
+    "h",
+    "l",
+    "lx",
+    "ly",
+    "r0",
+    "eps",
+    "mesh",
+    "dt",
+    "t_end",
+];
+
 impl CaseSpec {
+    /// The case's parameters by [`PARAMETER_COLUMNS`]: numbers, the mesh as `NxM` text, `null`
+    /// where the set-up has none (δ of a Couette case, r0* of a channel).
+    pub fn parameter_columns(&self) -> [(&'static str, Value); 15] {
+        let (h, l) = self.channel().unzip();
+        let (lx, ly) = self.spacing().unzip();
+        let mut values = [
+            json!(self.fluid.wi),
+            json!(self.fluid.alpha),
+            json!(self.fluid.beta),
+            json!(self.delta()),
+            json!(self.n_particles()),
+            json!(self.radius()),
+            json!(h),
+            json!(l),
+            json!(lx),
+            json!(ly),
+            json!(self.r0_star()),
+            json!(self.eps()),
+            json!(format!(
+                "{}x{}",
+                self.numerics.mesh[0], self.numerics.mesh[1]
+            )),
+            json!(self.numerics.dt.initial()),
+            json!(self.numerics.t_end),
+        ];
+        std::array::from_fn(|i| (PARAMETER_COLUMNS[i], values[i].take()))
+    }
+
     /// Particle radius a, or `None` without particles.
     pub fn radius(&self) -> Option<f64> {
         self.particles.as_ref().map(|p| p.radius)

@@ -1,12 +1,13 @@
 //! Writing sweeps, runs and cases: registration, claiming a case (pending → running), checkpoints of
 //! samples, and the one transaction that records a finished case.
 
+use rusqlite::types::Value as SqlValue;
 use rusqlite::{params, OptionalExtension, TransactionBehavior};
 
 use super::status::owner_alive;
 use super::{code_version, hostname, machine, Result, Store};
-use crate::config::PlannedCase;
 use crate::config::SweepSpec;
+use crate::config::{PlannedCase, PARAMETER_COLUMNS};
 use crate::observe::{Outcome, Sample};
 
 /// A case claimed by this process.
@@ -150,12 +151,14 @@ impl Store {
             .map_err(&err)?;
         }
         {
+            let n = 5 + PARAMETER_COLUMNS.len();
             let mut insert = tx
-                .prepare(
-                    "INSERT OR IGNORE INTO cases (sweep_id, case_hash, label, geometry, params_json, wi, alpha, beta,
-                        delta, n_particles, a, h, l, lx, ly, r0, eps, mesh, dt, t_end)
-                     VALUES (?1, ?2, ?3, ?4, ?5, ?6, ?7, ?8, ?9, ?10, ?11, ?12, ?13, ?14, ?15, ?16, ?17, ?18, ?19, ?20)",
-                )
+                .prepare(&format!(
+                    "INSERT OR IGNORE INTO cases (sweep_id, case_hash, label, geometry, params_json, {})
+                     VALUES ({})",
+                    PARAMETER_COLUMNS.join(", "),
+                    (1..=n).map(|i| format!("?{i}")).collect::<Vec<_>>().join(", ")
+                ))
                 .map_err(&err)?;
             let mut link = tx
                 .prepare(
@@ -166,31 +169,24 @@ impl Store {
             for c in cases {
                 let s = &c.spec;
                 let params_json = serde_json::to_string(s).unwrap_or_default();
-                let (h, l) = s.channel().unzip();
-                let (lx, ly) = s.spacing().unzip();
+                let mut row = vec![
+                    SqlValue::Integer(sweep_id),
+                    SqlValue::Text(c.id.clone()),
+                    SqlValue::Text(c.label.clone()),
+                    SqlValue::Text(s.geometry.kind().into()),
+                    SqlValue::Text(params_json),
+                ];
+                // the parameters, in the INSERT's order (PARAMETER_COLUMNS)
+                row.extend(s.parameter_columns().map(|(_, v)| match v {
+                    serde_json::Value::Number(n) => n.as_i64().map_or_else(
+                        || SqlValue::Real(n.as_f64().unwrap_or(f64::NAN)),
+                        SqlValue::Integer,
+                    ),
+                    serde_json::Value::String(t) => SqlValue::Text(t),
+                    _ => SqlValue::Null,
+                }));
                 insert
-                    .execute(params![
-                        sweep_id,
-                        c.id,
-                        c.label,
-                        s.geometry.kind(),
-                        params_json,
-                        s.fluid.wi,
-                        s.fluid.alpha,
-                        s.fluid.beta,
-                        s.delta(),
-                        s.n_particles() as i64,
-                        s.radius(),
-                        h,
-                        l,
-                        lx,
-                        ly,
-                        s.r0_star(),
-                        s.eps(),
-                        format!("{}x{}", s.numerics.mesh[0], s.numerics.mesh[1]),
-                        s.numerics.dt.initial(),
-                        s.numerics.t_end
-                    ])
+                    .execute(rusqlite::params_from_iter(row))
                     .map_err(|source| super::StoreError::Sql {
                         path: path.clone(),
                         source,

@@ -54,6 +54,7 @@ pub fn sweep_args(file: &Path, db: &Path) -> xpflow::cli::sweep_cmds::SweepArgs 
         quiet: true,
         retry_failed: false,
         cases: Vec::new(),
+        filters: Vec::new(),
         state_every: 5.0,
         max_memory: None,
         max_cases: xpflow::sweep::expand::DEFAULT_MAX_CASES,
@@ -95,10 +96,10 @@ pub fn resumed_difference(resumed: &[[f64; 4]], reference: &[[f64; 4]]) -> f64 {
 /// `xpflow query WHAT --db DB --format csv` over every sweep: its exit code and output.
 #[allow(dead_code)] // not every test binary queries
 pub fn query(
-    what: xpflow::cli::sweep_cmds::QueryWhat,
+    what: xpflow::cli::query_cmds::QueryWhat,
     db: &Path,
 ) -> (std::process::ExitCode, String) {
-    let a = xpflow::cli::sweep_cmds::QueryArgs {
+    let a = xpflow::cli::query_cmds::QueryArgs {
         what,
         db: db.into(),
         sweep: None,
@@ -108,7 +109,7 @@ pub fn query(
         format: xpflow::store::Format::Csv,
     };
     let mut out = Vec::new();
-    let code = xpflow::cli::sweep_cmds::run_query_to(&a, &mut out).unwrap();
+    let code = xpflow::cli::query_cmds::run_query_to(&a, &mut out).unwrap();
     (code, String::from_utf8(out).unwrap())
 }
 
