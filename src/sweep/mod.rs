@@ -8,7 +8,7 @@
 //! [`slurm`] writes and submits job arrays over a [`manifest`] whose tasks each run one case into a
 //! shard of their own ([`task`]).
 
-pub mod cpu_time;
+pub mod clock;
 pub mod engine;
 pub mod expand;
 pub mod manifest;

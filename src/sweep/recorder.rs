@@ -6,7 +6,7 @@
 use std::path::PathBuf;
 use std::time::{Duration, Instant};
 
-use super::cpu_time::CpuClock;
+use super::clock::CaseClock;
 use super::engine::CaseContext;
 use super::progress::{CaseProgress, Progress};
 use crate::config::CaseSpec;
@@ -53,11 +53,8 @@ pub(super) struct Recorder<'a> {
     resume_state: Option<String>,
     /// The step a resumed case continues after (its snapshots up to there are kept).
     resumed_at: Option<u64>,
-    /// Wall-clock seconds spent on the case by earlier, interrupted attempts.
-    wall_before: f64,
-    started: Instant,
-    /// CPU seconds of this thread on the case, earlier attempts' included.
-    cpu: CpuClock,
+    /// What the case has cost so far, earlier attempts' included.
+    clock: CaseClock,
 }
 
 impl<'a> Recorder<'a> {
@@ -94,21 +91,19 @@ impl<'a> Recorder<'a> {
             state_error: None,
             resume_state: None,
             resumed_at: None,
-            wall_before: 0.0,
-            started: Instant::now(),
-            cpu: CpuClock::start(),
+            clock: CaseClock::start(),
         }
     }
 
     /// Wall-clock seconds spent on the case so far, over all attempts.
     pub(super) fn wall_s(&self) -> f64 {
-        self.wall_before + self.started.elapsed().as_secs_f64()
+        self.clock.wall_seconds()
     }
 
     /// CPU seconds spent on the case so far, over all attempts, if known for all of them
-    /// ([`CpuClock`]): its cost without the time it waited.
+    /// ([`CaseClock`]): its cost without the time it waited.
     pub(super) fn cpu_s(&self) -> Option<f64> {
-        self.cpu.seconds()
+        self.clock.cpu_seconds()
     }
 
     /// Continues an interrupted attempt: the classifier, the last sample and the solver state as
@@ -117,8 +112,7 @@ impl<'a> Recorder<'a> {
         self.classifier = r.classifier;
         self.stored_step = r.stored_step;
         self.last = Some(r.last);
-        self.wall_before = r.wall_s;
-        self.cpu.continue_after(r.cpu_s);
+        self.clock.continue_after(r.wall_s, r.cpu_s);
         self.resumed_at = Some(r.step);
         self.resume_state = Some(r.solver.get().to_string());
     }
