@@ -24,37 +24,22 @@ use super::{hostname, schema, Result, Store, StoreError};
 
 /// The columns of `cases` copied from a shard as they are (`id`, `sweep_id` and `run_id` are
 /// mapped onto the database's rows).
-const CASE_COLUMNS: [&str; 29] = [
-    "case_hash",
-    "label",
-    "geometry",
-    "params_json",
-    "wi",
-    "alpha",
-    "beta",
-    "delta",
-    "n_particles",
-    "a",
-    "h",
-    "l",
-    "lx",
-    "ly",
-    "r0",
-    "eps",
-    "mesh",
-    "dt",
-    "t_end",
-    "status",
-    "owner",
-    "owner_pid",
-    "started_at",
-    "finished_at",
-    "wall_s",
-    "steps",
-    "t_reached",
-    "error",
-    "settings_json",
-];
+const CASE_COLUMNS: [&str; 29] = schema::columns(&[
+    &["case_hash", "label", "geometry", "params_json"],
+    &crate::config::PARAMETER_COLUMNS,
+    &[
+        "status",
+        "owner",
+        "owner_pid",
+        "started_at",
+        "finished_at",
+        "wall_s",
+        "steps",
+        "t_reached",
+        "error",
+        "settings_json",
+    ],
+]);
 
 /// What merging one shard did.
 #[derive(Debug, Clone, PartialEq, Eq)]

@@ -6,6 +6,25 @@
 /// Bumped whenever the schema changes; an older database is migrated by [`MIGRATIONS`].
 pub const SCHEMA_VERSION: i64 = 4;
 
+/// The column lists `parts` one after the other, as one array of `N` names: lists of `cases`
+/// columns built on [`PARAMETER_COLUMNS`](crate::config::PARAMETER_COLUMNS) without repeating
+/// them (a wrong `N` fails to compile).
+pub(super) const fn columns<const N: usize>(parts: &[&[&'static str]]) -> [&'static str; N] {
+    let mut out = [""; N];
+    let (mut k, mut p) = (0, 0);
+    while p < parts.len() {
+        let mut i = 0;
+        while i < parts[p].len() {
+            out[k] = parts[p][i];
+            k += 1;
+            i += 1;
+        }
+        p += 1;
+    }
+    assert!(k == N, "the parts hold another number of columns");
+    out
+}
+
 /// Statements creating the current version from nothing (all idempotent).
 pub const CREATE: &str = r#"
 CREATE TABLE IF NOT EXISTS schema_version (version INTEGER NOT NULL);

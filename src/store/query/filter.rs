@@ -8,31 +8,20 @@ use serde_json::Value;
 
 pub use crate::config::PARAMETER_COLUMNS;
 
-/// Columns of `cases`/`outcomes` a filter may name (identifiers cannot be bound, so they are whitelisted).
-pub const FILTER_COLUMNS: [&str; 22] = [
-    "wi",
-    "alpha",
-    "beta",
-    "delta",
-    "n_particles",
-    "a",
-    "h",
-    "l",
-    "lx",
-    "ly",
-    "r0",
-    "eps",
-    "mesh",
-    "dt",
-    "t_end",
-    "status",
-    "kind",
-    "geometry",
-    "label",
-    "case_hash",
-    "string_length",
-    "error",
-];
+/// Columns of `cases`/`outcomes` a filter may name (identifiers cannot be bound, so they are
+/// whitelisted): the case's parameters, then its state and outcome.
+pub const FILTER_COLUMNS: [&str; 22] = crate::store::schema::columns(&[
+    &PARAMETER_COLUMNS,
+    &[
+        "status",
+        "kind",
+        "geometry",
+        "label",
+        "case_hash",
+        "string_length",
+        "error",
+    ],
+]);
 
 /// Columns of [`FILTER_COLUMNS`] that hold text; the others are numbers, and a filter on them needs one.
 const TEXT_COLUMNS: [&str; 7] = [
