@@ -58,10 +58,8 @@ impl Store {
                 "--case needs a case id (see `xpflow query cases`)".into(),
             ));
         }
-        let n = self.rows(
-            "SELECT count(*) FROM cases WHERE substr(case_hash, 1, length(?1)) = ?1",
-            &[SqlValue::Text(id.into())],
-        )?;
+        let (cond, args) = where_clause(None, &[Filter::case(id)]);
+        let n = self.rows(&format!("SELECT count(*) FROM cases c{cond}"), &args)?;
         match n.first().and_then(|r| r[0].as_i64()) {
             Some(0) => Err(StoreError::BadQuery(format!("no case with id `{id}`"))),
             _ => Ok(()),
@@ -78,6 +76,11 @@ impl Store {
         if let Some(name) = sweep {
             self.check_sweep(name)?;
         }
+        // a trajectory's case is a case filter like `--case` on the other tables
+        let mut filters = filters.to_vec();
+        if let QueryKind::Trajectory(hash) = kind {
+            filters.push(Filter::case(hash));
+        }
         for id in filters
             .iter()
             .filter(|f| f.prefix)
@@ -85,7 +88,7 @@ impl Store {
         {
             self.check_case_prefix(id.unwrap_or_default())?;
         }
-        let (cond, args) = where_clause(sweep, filters);
+        let (cond, args) = where_clause(sweep, &filters);
         match kind {
             QueryKind::StringFormation => {
                 let rows = self.rows(
@@ -280,24 +283,9 @@ impl Store {
                 })
             }
             QueryKind::Trajectory(hash) => {
-                let mut args = args;
-                // a prefix, compared as text (LIKE would take `%` and `_` as wildcards)
-                let ids = self.rows(
-                    &format!(
-                        "SELECT c.id FROM cases c{cond} AND substr(c.case_hash, 1, length(?{0})) = ?{0}",
-                        args.len() + 1
-                    ),
-                    &{
-                        args.push(SqlValue::Text(hash.clone()));
-                        args.clone()
-                    },
-                )?;
+                // (the case filter above; an empty id or one of no case refused there)
+                let ids = self.rows(&format!("SELECT c.id FROM cases c{cond}"), &args)?;
                 let id = match ids.as_slice() {
-                    _ if hash.is_empty() => {
-                        return Err(StoreError::BadQuery(
-                            "--case needs a case id (see `xpflow query cases`)".into(),
-                        ))
-                    }
                     [one] => one[0].clone(),
                     [] => return Err(StoreError::BadQuery(format!("no case with id `{hash}`"))),
                     _ => {
