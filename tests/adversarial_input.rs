@@ -192,6 +192,8 @@ fn query(db: &Path, what: QueryWhat, edit: impl Fn(&mut QueryArgs)) -> (ExitCode
         filters: vec![],
         case: None,
         by: "r0".into(),
+        rows: None,
+        cols: None,
         format: Format::Json,
     };
     edit(&mut a);
@@ -245,6 +247,35 @@ fn queries_that_cannot_match_exit_2() {
         );
         let (code, _) = query(&db, what, |a| a.case = Some("%".into()));
         assert_eq!(code, ExitCode::from(2), "{what:?} --case %");
+    }
+    // `outcomes` pivots on two parameter columns, both named: one missing or not a parameter
+    // (an outcome's `kind`, a made-up name) is refused
+    let axes = |rows: Option<&str>, cols: Option<&str>| {
+        query(&db, QueryWhat::Outcomes, |a| {
+            a.rows = rows.map(Into::into);
+            a.cols = cols.map(Into::into);
+        })
+    };
+    for (rows, cols) in [
+        (Some("wi"), None),
+        (None, Some("mesh")),
+        (Some("kind"), Some("mesh")),
+        (Some("wi"), Some("nosuch")),
+    ] {
+        assert_eq!(axes(rows, cols).0, ExitCode::from(2), "{rows:?} × {cols:?}");
+    }
+    let (code, json) = axes(Some("wi"), Some("mesh"));
+    assert_eq!(code, ExitCode::SUCCESS);
+    let rows: Vec<serde_json::Value> = serde_json::from_str(&json).unwrap();
+    assert_eq!(rows.len(), 2, "{json}");
+    // each Wi's cell is its one case's outcome, as `query cases` has it
+    for (row, wi) in rows.iter().zip([1.0, 2.0]) {
+        assert_eq!(row["wi"], wi);
+        let (_, case) = query(&db, QueryWhat::Cases, |a| {
+            a.filters = vec![format!("wi={wi}")]
+        });
+        let case: Vec<serde_json::Value> = serde_json::from_str(&case).unwrap();
+        assert_eq!(row["mesh=40x10"], case[0]["kind"], "{json}");
     }
 }
 

@@ -380,6 +380,8 @@ fn sweep_then_query_and_status() {
             filters: filters.into_iter().map(String::from).collect(),
             case: None,
             by: "r0".into(),
+            rows: None,
+            cols: None,
             format,
         };
         let mut out = Vec::new();
@@ -433,6 +435,8 @@ fn sweep_then_query_and_status() {
         filters: vec![],
         case: Some(id[..8].into()),
         by: "r0".into(),
+        rows: None,
+        cols: None,
         format: Format::Csv,
     };
     let mut out = Vec::new();

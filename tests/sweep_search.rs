@@ -301,6 +301,8 @@ fn query(db: &Path, format: Format, sweep: Option<&str>, filters: &[&str]) -> (E
         filters: filters.iter().map(|f| f.to_string()).collect(),
         case: None,
         by: "r0".into(),
+        rows: None,
+        cols: None,
         format,
     };
     let mut out = Vec::new();

@@ -6,7 +6,7 @@ use std::path::PathBuf;
 use std::process::ExitCode;
 
 use super::sweep_cmds::invalid;
-use crate::store::query::{Filter, QueryKind, FILTER_COLUMNS};
+use crate::store::query::{Filter, QueryKind, FILTER_COLUMNS, PARAMETER_COLUMNS};
 use crate::store::{Format, Store};
 
 /// What `xpflow query` tabulates.
@@ -18,6 +18,9 @@ pub enum QueryWhat {
     Regime,
     /// Final r* of Couette cases by a parameter (`--by`).
     FinalR,
+    /// Every case's outcome per value of one parameter (`--rows`) × another (`--cols`), e.g.
+    /// β × mesh: a string with its mean gap over a and the elements across its film.
+    Outcomes,
     /// One row per case with status and outcome.
     Cases,
     /// Final state of every particle of every decided case: position, ω*, gap to the next particle
@@ -55,9 +58,32 @@ pub struct QueryArgs {
     /// Parameter column ordering `final-r` [default: r0].
     #[arg(long, default_value = "r0")]
     pub by: String,
+    /// Parameter column of the rows of `outcomes` (e.g. beta).
+    #[arg(long)]
+    pub rows: Option<String>,
+    /// Parameter column of the columns of `outcomes` (e.g. mesh).
+    #[arg(long)]
+    pub cols: Option<String>,
     /// Output format.
     #[arg(long, value_enum, default_value_t = Format::Table)]
     pub format: Format,
+}
+
+/// The parameter column an `outcomes` axis names (`--rows`, `--cols`).
+fn parameter(name: &Option<String>) -> Result<&'static str, String> {
+    let name = name
+        .as_deref()
+        .ok_or("outcomes needs --rows COLUMN and --cols COLUMN, e.g. --rows beta --cols mesh")?;
+    PARAMETER_COLUMNS
+        .iter()
+        .find(|c| **c == name)
+        .copied()
+        .ok_or_else(|| {
+            format!(
+                "`{name}` is not a parameter column; use one of {}",
+                PARAMETER_COLUMNS.join(", ")
+            )
+        })
 }
 
 /// Handler of `xpflow query`.
@@ -91,6 +117,10 @@ pub fn run_query_to(args: &QueryArgs, out: &mut dyn Write) -> anyhow::Result<Exi
                     FILTER_COLUMNS.join(", ")
                 ))
             }
+        },
+        QueryWhat::Outcomes => match (parameter(&args.rows), parameter(&args.cols)) {
+            (Ok(rows), Ok(cols)) => QueryKind::Outcomes { rows, cols },
+            (Err(e), _) | (_, Err(e)) => return invalid(&e),
         },
         QueryWhat::Boundaries => return super::search_cmds::query_boundaries(args, &filters, out),
         QueryWhat::Trajectory => match &args.case {

@@ -11,6 +11,7 @@ use serde_json::{json, Value};
 use super::{Result, Store, StoreError, Table};
 
 mod filter;
+mod outcomes;
 use filter::where_clause;
 pub use filter::{Filter, FILTER_COLUMNS, PARAMETER_COLUMNS};
 
@@ -27,6 +28,14 @@ pub enum QueryKind {
     Regime,
     /// Final r* of Couette cases, sorted by the given column.
     FinalRStar(&'static str),
+    /// Every case's outcome (a string with its gap and film), per value of one parameter column
+    /// (rows) × another (columns): e.g. β × mesh, how an outcome changes with the resolution.
+    Outcomes {
+        /// Parameter column of the rows.
+        rows: &'static str,
+        /// Parameter column of the columns.
+        cols: &'static str,
+    },
     /// One row per case with its status and outcome.
     Cases,
     /// One row per particle of each decided case: its final position, ω* and gap.
@@ -143,6 +152,20 @@ impl Store {
                     .collect();
                 Ok(pivot("delta", "Wi=", cells, |k: Key| json!(k.0)))
             }
+            QueryKind::Outcomes { rows, cols } => {
+                let sql = format!(
+                    "SELECT c.{rows}, c.{cols}, c.status, c.kind, c.mean_gap,
+                            json_extract(c.final_json, '$.gap_elements'), c.owner, c.owner_pid
+                     FROM case_outcomes c{cond} ORDER BY c.{rows}, c.id"
+                );
+                let mut cases = self.rows(&sql, &args)?;
+                for r in &mut cases {
+                    let pid = r.pop().and_then(|v| v.as_i64());
+                    let owner = r.pop();
+                    r[2] = interrupted_or(&r[2], owner.as_ref().and_then(Value::as_str), pid);
+                }
+                Ok(outcomes::pivot(rows, cols, cases))
+            }
             QueryKind::FinalRStar(by) => {
                 // (column, heading) of the parameters shown after the ordering one, which is
                 // shown first and not again
@@ -201,18 +224,11 @@ impl Store {
                             json_extract(c.final_json, '$.gap_elements_min'), c.wall_s,
                             json_extract(c.final_json, '$.cpu_s'), c.error, c.owner, c.owner_pid FROM case_outcomes c{cond} ORDER BY c.id"
                 );
-                let host = super::hostname();
                 let mut rows = self.rows(&sql, &args)?;
                 for r in &mut rows {
                     let pid = r.pop().and_then(|v| v.as_i64());
                     let owner = r.pop();
-                    let owner = owner.as_ref().and_then(Value::as_str);
-                    // a case `running` in the database whose process is gone was interrupted
-                    if r[2] == "running"
-                        && super::status::owner_alive(owner, pid, &host) == Some(false)
-                    {
-                        r[2] = json!("interrupted");
-                    }
+                    r[2] = interrupted_or(&r[2], owner.as_ref().and_then(Value::as_str), pid);
                     // the mean gap describes a string; for other outcomes it is the distance
                     // between particles that never chained (4960a after a jump), not a result
                     if r[3] != "string" {
@@ -365,6 +381,18 @@ impl Store {
             })
             .map_err(&err)?;
         rows.collect::<rusqlite::Result<_>>().map_err(err)
+    }
+}
+
+/// A case's status as the tables show it: `interrupted` for a case `running` in the database
+/// whose process (`owner`, `pid`) is gone.
+fn interrupted_or(status: &Value, owner: Option<&str>, pid: Option<i64>) -> Value {
+    if status == "running"
+        && super::status::owner_alive(owner, pid, &super::hostname()) == Some(false)
+    {
+        json!("interrupted")
+    } else {
+        status.clone()
     }
 }
 

@@ -106,6 +106,8 @@ pub fn query(
         filters: vec![],
         case: None,
         by: "r0".into(),
+        rows: None,
+        cols: None,
         format: xpflow::store::Format::Csv,
     };
     let mut out = Vec::new();

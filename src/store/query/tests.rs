@@ -39,3 +39,96 @@ fn a_filter_matches_values_as_its_sql_does() {
     let case = Filter::case("70b0");
     assert!(case.matches(&json!("70b03494262dc3f5")) && !case.matches(&json!("7b0")));
 }
+
+/// The outcomes pivot: meshes ordered by their numbers (not as text), a string with its gap and
+/// film, an undecided case by its status, cases sharing a cell both listed, an empty cell null.
+#[test]
+fn outcomes_pivot_orders_meshes_by_their_numbers_and_lists_every_case_of_a_cell() {
+    let case = |beta: f64, mesh: &str, status: &str, kind: Value, gap: Value, film: Value| {
+        vec![json!(beta), json!(mesh), json!(status), kind, gap, film]
+    };
+    let rows = vec![
+        case(
+            0.5,
+            "400x100",
+            "done",
+            json!("string"),
+            json!(0.0242),
+            json!(0.39),
+        ),
+        case(
+            0.5,
+            "200x62",
+            "done",
+            json!("string"),
+            json!(0.0618),
+            json!(0.5),
+        ),
+        case(
+            0.5,
+            "1000x250",
+            "running",
+            Value::Null,
+            Value::Null,
+            Value::Null,
+        ),
+        case(
+            0.6,
+            "200x62",
+            "done",
+            json!("pass"),
+            json!(3.05),
+            Value::Null,
+        ),
+        case(
+            0.6,
+            "200x62",
+            "failed",
+            Value::Null,
+            Value::Null,
+            Value::Null,
+        ),
+    ];
+    let t = outcomes::pivot("beta", "mesh", rows);
+    assert_eq!(
+        t.columns,
+        ["beta", "mesh=200x62", "mesh=400x100", "mesh=1000x250"]
+    );
+    assert_eq!(
+        t.rows[0],
+        [
+            json!(0.5),
+            json!("string 0.062a 0.50el"),
+            json!("string 0.024a 0.39el"),
+            json!("running")
+        ]
+    );
+    assert_eq!(
+        t.rows[1],
+        [json!(0.6), json!("pass; failed"), Value::Null, Value::Null]
+    );
+}
+
+/// Axis values: numbers by value, texts by the numbers in them, a missing value last.
+#[test]
+fn axis_values_order_naturally() {
+    use outcomes::AxisValue::*;
+    let mut v = vec![
+        Missing,
+        Text("300x78".into()),
+        Number(0.7),
+        Text("40x10".into()),
+        Number(-1.0),
+    ];
+    v.sort();
+    assert_eq!(
+        v,
+        [
+            Number(-1.0),
+            Number(0.7),
+            Text("40x10".into()),
+            Text("300x78".into()),
+            Missing
+        ]
+    );
+}
