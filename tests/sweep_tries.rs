@@ -253,6 +253,63 @@ fn the_command_line_validates_lists_and_runs() {
     assert_eq!(before, after);
 }
 
+/// `--where` runs whole combinations of the other axes (e.g. one row of a table): the selected
+/// ones to their end, the others not at all, and every case still listed as the sweep's; a
+/// selection of some tries of a combination (a value of the tried axis), or `--case`, is refused
+/// before anything is written (exit 2).
+#[test]
+fn where_selects_whole_combinations() {
+    let dir = Scratch::new("tries", "where");
+    let runner = FakeRunner::new(behaviour);
+    let file = dir.join("where.toml");
+    std::fs::write(&file, SWEEP).unwrap();
+    let db = dir.join("where.db");
+    let run = |edit: &dyn Fn(&mut xpflow::cli::sweep_cmds::SweepArgs)| -> (ExitCode, String) {
+        let mut args = common::sweep_args(&file, &db);
+        args.quiet = false;
+        edit(&mut args);
+        let mut out = Vec::new();
+        let code = run_sweep_with(&args, &runner, &mut out).unwrap();
+        (code, String::from_utf8(out).unwrap())
+    };
+    for refused in [
+        &(|a: &mut xpflow::cli::sweep_cmds::SweepArgs| a.filters = vec!["lx=0.3".into()])
+            as &dyn Fn(&mut xpflow::cli::sweep_cmds::SweepArgs),
+        &|a| a.filters = vec!["n_particles=5".into()],
+        &|a| a.cases = vec!["0".into()],
+    ] {
+        assert_eq!(run(refused).0, ExitCode::from(2));
+        assert!(!db.exists(), "nothing written");
+    }
+    let (code, out) = run(&|a| {
+        a.filters = vec!["n_particles=3".into()];
+        a.dry_run = true;
+    });
+    assert_eq!(code, ExitCode::SUCCESS);
+    assert!(
+        out.contains(
+            "3 cases in sweep tries: 1 combination(s) of the other axes (1 of its 3 selected)"
+        ),
+        "{out}"
+    );
+    // N = 3 alone: its two tries (the second forms the string), nothing of N = 2 or 4
+    let (code, out) = run(&|a| a.filters = vec!["n_particles=3".into()]);
+    assert_eq!(code, ExitCode::SUCCESS);
+    assert!(
+        out.contains("1 combination(s), 1 ended in string") && out.contains("2 of the grid's 3"),
+        "{out}"
+    );
+    assert_eq!(
+        finished(&db),
+        set(&["n=3 lx=0.25 ly=0.025", "n=3 lx=0.3 ly=0.05"])
+    );
+    assert_eq!(linked(&db).len(), 2 + 3 + 3, "N = 2 and 4 listed, pending");
+    // the rest without a selection: the same cases as one run of the whole sweep
+    let (code, _) = run(&|_| {});
+    assert_eq!(code, ExitCode::SUCCESS);
+    assert_eq!(finished(&db), set(&TRIED));
+}
+
 /// `--slurm` without a scheduler: each invocation writes the current round's manifest; its tasks
 /// run (`xpflow run-case`), their shards are merged, and `--slurm --resume` plans the next round
 /// from the merged database, until the tries are over — the same cases as on one machine.

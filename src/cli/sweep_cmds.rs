@@ -119,18 +119,25 @@ pub fn run_sweep_with(
         Err(e) => return invalid(&e),
     };
     if !args.cases.is_empty() || !args.filters.is_empty() {
-        let with = if spec.search.is_some() {
-            Some("a sweep file with a [search] section (its cases are chosen as it runs)")
-        } else if spec.tries.is_some() {
-            Some("a sweep file with a [tries] section (its rounds choose the cases)")
+        let refused = if spec.search.is_some() {
+            Some((
+                "--case and --where",
+                "a sweep file with a [search] section (its cases are chosen as it runs)",
+            ))
+        } else if spec.tries.is_some() && !args.cases.is_empty() {
+            Some((
+                "--case",
+                "a sweep file with a [tries] section (its rounds choose the cases; --where \
+                 selects whole combinations of the other axes)",
+            ))
         } else if args.slurm.slurm {
-            Some("--slurm")
+            Some(("--case and --where", "--slurm"))
         } else {
             None
         };
-        if let Some(with) = with {
+        if let Some((what, with)) = refused {
             return invalid(&format!(
-                "{}: --case and --where cannot be used with {with}",
+                "{}: {what} cannot be used with {with}",
                 args.file.display()
             ));
         }

@@ -8,12 +8,13 @@ use std::process::ExitCode;
 use anyhow::Context;
 
 use super::sweep_cmds::{
-    invalid, list_cases, print_resolved, sweep_options, SweepArgs, EXIT_INVALID,
+    invalid, list_cases, print_resolved, select_by_parameters, sweep_options, SweepArgs,
+    EXIT_INVALID,
 };
 use crate::config::{PlannedCase, SweepSpec};
 use crate::sweep::engine::SweepError;
 use crate::sweep::search::stored_outcomes;
-use crate::sweep::tries::{lines, replay, run_tries, TryLine};
+use crate::sweep::tries::{lines, replay, run_tries, select_lines, TryLine};
 use crate::sweep::CaseRunner;
 
 /// Runs (or resumes) the tries of `spec` over its grid `cases`, or lists the grid with
@@ -28,25 +29,44 @@ pub(super) fn run(
     let Some(t) = &spec.tries else {
         return invalid(&"the sweep has no [tries] section");
     };
-    let lines = match lines(spec, cases) {
+    let mut lines = match lines(spec, cases) {
         Ok(l) => l,
         Err(e) => return invalid(&e),
     };
+    if !args.filters.is_empty() {
+        // `--where`: whole lines (combinations of the other axes), e.g. one Wi row of a table
+        let selected = select_by_parameters(cases, &args.filters, None)
+            .map(Option::unwrap_or_default)
+            .and_then(|ids| select_lines(&mut lines, cases, &ids));
+        if let Err(e) = selected {
+            return invalid(&format!("{}: {e}", args.file.display()));
+        }
+    }
     let per_line = lines.iter().map(|l| l.tries.len()).max().unwrap_or(0);
+    let run_lines = lines.iter().filter(|l| l.run).count();
+    // the cases of the lines this invocation tries (all of the grid without `--where`)
+    let listed: Vec<PlannedCase> = lines
+        .iter()
+        .filter(|l| l.run)
+        .flat_map(|l| l.tries.iter().map(|&i| cases[i].clone()))
+        .collect();
     if args.dry_run {
-        list_cases(cases, out)?;
+        list_cases(&listed, out)?;
+        let selected = if run_lines < lines.len() {
+            format!(" ({run_lines} of its {} selected)", lines.len())
+        } else {
+            String::new()
+        };
         writeln!(
             out,
-            "{} cases in sweep {}: {} combination(s) of the other axes × {per_line} tries of {} \
-             in this order, each combination stopping at its first case that ends in {}: \
-             between {} and {} cases run",
-            cases.len(),
+            "{} cases in sweep {}: {run_lines} combination(s) of the other axes{selected} × \
+             {per_line} tries of {} in this order, each combination stopping at its first case \
+             that ends in {}: between {run_lines} and {} cases run",
+            listed.len(),
             spec.name,
-            lines.len(),
             t.over,
             t.until.describe(),
-            lines.len(),
-            cases.len()
+            listed.len()
         )?;
         let db = sweep_options(args, spec).db;
         if db.exists() {
@@ -54,7 +74,11 @@ pub(super) fn run(
             let lookup = &mut |ids: &[&str]| stored_outcomes(&db, ids);
             match replay(spec, cases, lines.clone(), false, lookup) {
                 Ok(state) => {
-                    let met = state.lines.iter().filter(|l| l.met.is_some()).count();
+                    let met = state
+                        .lines
+                        .iter()
+                        .filter(|l| l.run && l.met.is_some())
+                        .count();
                     let round: Vec<String> = state
                         .round()
                         .iter()
@@ -67,7 +91,7 @@ pub(super) fn run(
                         db.display(),
                         state.tried().len(),
                         t.until.describe(),
-                        state.lines.len() - met - round.len(),
+                        run_lines - met - round.len(),
                         round.len(),
                         if round.is_empty() { "none".into() } else { round.join(", ") }
                     )?;
@@ -77,10 +101,10 @@ pub(super) fn run(
             }
         }
         if args.resolved {
-            print_resolved(cases, out)?;
+            print_resolved(&listed, out)?;
         }
         if args.estimate {
-            super::estimate::print_estimate(cases, &db, out)?;
+            super::estimate::print_estimate(&listed, &db, out)?;
             writeln!(
                 out,
                 "(the bound runs every try; a combination stops at its first {})",

@@ -34,6 +34,9 @@ pub struct TryLine {
     pub met: Option<usize>,
     /// The first try not finished yet (the one to run now), unless met or exhausted.
     pub current: Option<usize>,
+    /// Whether this invocation tries the line: every line, unless `xpflow sweep --where`
+    /// selected some ([`select_lines`]); the others are registered as they stand, not run.
+    pub run: bool,
 }
 
 impl TryLine {
@@ -54,17 +57,30 @@ pub struct TriesState {
 }
 
 impl TriesState {
-    /// The cases of the current round: each line's current try, in grid order.
+    /// The cases of the current round: each line's current try, in grid order (the lines run
+    /// by this invocation).
     pub fn round(&self) -> Vec<usize> {
-        let mut r: Vec<usize> = self.lines.iter().filter_map(|l| l.current).collect();
+        let mut r: Vec<usize> = self
+            .lines
+            .iter()
+            .filter(|l| l.run)
+            .filter_map(|l| l.current)
+            .collect();
         r.sort_unstable();
         r
     }
 
-    /// The cases tried so far, the current round's included: on each line its tries up to the
-    /// one that met `until` or the current one, all of them when none met it; in grid order.
+    /// The cases tried so far, the current round's included: on each line run by this
+    /// invocation its tries up to the one that met `until` or the current one, all of them when
+    /// none met it; in grid order.
     pub fn tried(&self) -> Vec<usize> {
-        self.collect(|l| l.through(l.met.or(l.current)))
+        self.collect(|l| {
+            if l.run {
+                l.through(l.met.or(l.current))
+            } else {
+                &[]
+            }
+        })
     }
 
     /// The sweep's cases as the database lists them: on a line that met `until` its tries up to
@@ -80,10 +96,40 @@ impl TriesState {
         v
     }
 
-    /// Whether no line has a try left to run.
+    /// Whether no line run by this invocation has a try left.
     pub fn finished(&self) -> bool {
-        self.lines.iter().all(|l| l.current.is_none())
+        self.lines
+            .iter()
+            .filter(|l| l.run)
+            .all(|l| l.current.is_none())
     }
+}
+
+/// Runs only the lines whose tries are all among `ids` (cases `xpflow sweep --where` selected):
+/// a selection is of whole lines, so a line with only some of its tries among them is an error
+/// naming it.
+pub fn select_lines(
+    lines: &mut [TryLine],
+    cases: &[PlannedCase],
+    ids: &std::collections::BTreeSet<String>,
+) -> Result<(), String> {
+    for line in lines.iter_mut() {
+        let among = line
+            .tries
+            .iter()
+            .filter(|&&i| ids.contains(&cases[i].id))
+            .count();
+        if among > 0 && among < line.tries.len() {
+            return Err(format!(
+                "the selection takes {among} of the {} tries of `{}`: select whole combinations \
+                 of the other axes, not values of the tried one",
+                line.tries.len(),
+                line.label
+            ));
+        }
+        line.run = among > 0;
+    }
+    Ok(())
 }
 
 /// The tries of the grid `cases` of `sweep` grouped into lines: cases that agree in every swept
@@ -122,6 +168,7 @@ pub fn lines(sweep: &SweepSpec, cases: &[PlannedCase]) -> Result<Vec<TryLine>, C
                 tries: Vec::new(),
                 met: None,
                 current: None,
+                run: true,
             });
             lines.len() - 1
         });
@@ -172,13 +219,13 @@ pub fn replay<E>(
 /// What a sweep with tries did.
 #[derive(Debug, Clone, Default, PartialEq)]
 pub struct TriesSummary {
-    /// Lines (combinations of the other axes).
+    /// Lines (combinations of the other axes) this invocation tries.
     pub lines: usize,
-    /// Lines whose tries met `until`.
+    /// Of those, the lines whose tries met `until`.
     pub met: usize,
     /// Rounds this invocation ran.
     pub rounds: usize,
-    /// Cases of the grid.
+    /// Cases of the grid (of the lines this invocation tries).
     pub grid: usize,
     /// Cases tried so far (finished, or running elsewhere).
     pub tried: usize,
@@ -207,8 +254,12 @@ pub fn run_tries(
     log: &mut dyn FnMut(&str),
 ) -> Result<TriesSummary, SweepError> {
     let mut summary = TriesSummary {
-        lines: template.len(),
-        grid: cases.len(),
+        lines: template.iter().filter(|l| l.run).count(),
+        grid: template
+            .iter()
+            .filter(|l| l.run)
+            .map(|l| l.tries.len())
+            .sum(),
         ..TriesSummary::default()
     };
     // a failed case is retried once, in the first round
@@ -230,7 +281,11 @@ pub fn run_tries(
             sweep.name,
             summary.rounds,
             round.len(),
-            state.lines.iter().filter(|l| l.met.is_some()).count()
+            state
+                .lines
+                .iter()
+                .filter(|l| l.run && l.met.is_some())
+                .count()
         ));
         let round_opts = SweepOptions {
             retry_failed,
@@ -247,7 +302,11 @@ pub fn run_tries(
             break state;
         }
     };
-    summary.met = state.lines.iter().filter(|l| l.met.is_some()).count();
+    summary.met = state
+        .lines
+        .iter()
+        .filter(|l| l.run && l.met.is_some())
+        .count();
     summary.finished = state.finished();
     summary.tried = state.tried().len();
     Ok(summary)
