@@ -74,13 +74,13 @@ fn a_study_case_is_benchmarked_from_its_saved_state() {
         .spawn()
         .unwrap();
     let t0 = std::time::Instant::now();
-    while xpflow::sweep::engine::saved_state(&db, &id).is_none_or(|(step, _, _)| step < 20) {
+    while xpflow::sweep::engine::saved_state(&db, &id).is_none_or(|s| s.step < 20) {
         assert!(t0.elapsed().as_secs() < 120, "no saved state appeared");
         std::thread::sleep(std::time::Duration::from_millis(20));
     }
     child.kill().unwrap();
     child.wait().unwrap();
-    let (step, _, _) = xpflow::sweep::engine::saved_state(&db, &id).unwrap();
+    let step = xpflow::sweep::engine::saved_state(&db, &id).unwrap().step;
     let before = std::fs::read(&state).unwrap();
     let out = bench(&[
         "--sweep",

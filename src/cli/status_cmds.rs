@@ -92,14 +92,22 @@ pub fn run_status_to(args: &StatusArgs, out: &mut dyn Write) -> anyhow::Result<E
             "t_end",
             "Δt",
             "saved state",
+            "left ≤",
         ]
         .map(String::from)
         .to_vec(),
         rows: Vec::new(),
     };
     for (db, c) in running {
-        let saved = match crate::sweep::engine::saved_state(db, &c.hash) {
-            Some((step, t, _)) => format!("step {step}, t = {t:.2}"),
+        let state = crate::sweep::engine::saved_state(db, &c.hash);
+        // the wall-clock time to t_end at the case's rate so far (early stop may end it sooner)
+        let left = state
+            .as_ref()
+            .zip(c.t_end)
+            .and_then(|(s, t_end)| s.wall_left(t_end))
+            .map_or_else(|| "-".to_string(), duration);
+        let saved = match state {
+            Some(s) => format!("step {}, t = {:.2}", s.step, s.t),
             None => match crate::sweep::engine::saved_prelude(db, &c.hash) {
                 Some(steps) => format!("prelude step {steps} (t = 0 follows it)"),
                 None => "none (restarts at t = 0)".into(),
@@ -126,6 +134,7 @@ pub fn run_status_to(args: &StatusArgs, out: &mut dyn Write) -> anyhow::Result<E
                 .map_or_else(|| "-".to_string(), |dt| format!("{dt:.4}"))
                 .into(),
             saved.into(),
+            left.into(),
         ]);
     }
     if !r.rows.is_empty() {
@@ -165,7 +174,7 @@ fn write_failed(
     };
     for (db, c) in failed {
         let kept = match crate::sweep::engine::saved_failed_state(db, &c.hash) {
-            Some((step, t, _)) => format!("step {step}, t = {t:.2}"),
+            Some(s) => format!("step {}, t = {:.2}", s.step, s.t),
             None => "none (restarts at t = 0)".into(),
         };
         f.rows.push(vec![
@@ -190,4 +199,40 @@ fn write_failed(
     )?;
     write!(out, "{}", f.render(Format::Table))?;
     Ok(())
+}
+
+/// A duration in seconds as a person reads it: `40 s`, `25 min`, `3.2 h`.
+fn duration(seconds: f64) -> String {
+    match seconds {
+        s if s < 90.0 => format!("{s:.0} s"),
+        s if s < 5400.0 => format!("{:.0} min", s / 60.0),
+        s => format!("{:.1} h", s / 3600.0),
+    }
+}
+
+#[cfg(test)]
+mod tests {
+    use super::duration;
+    use crate::sweep::engine::SavedState;
+
+    /// The time left to t_end at the mean rate so far: a case at t = 50 of 200 after 600 s has
+    /// 1800 s left; none without a clock (an older state) or before it has gone anywhere; none
+    /// left past t_end.
+    #[test]
+    fn the_time_left_is_the_rest_at_the_rate_so_far() {
+        let state = |t: f64, wall_s: Option<f64>| SavedState {
+            step: 1,
+            t,
+            code_version: "0.1.0".into(),
+            wall_s,
+        };
+        assert_eq!(state(50.0, Some(600.0)).wall_left(200.0), Some(1800.0));
+        assert_eq!(state(50.0, None).wall_left(200.0), None);
+        assert_eq!(state(0.0, Some(10.0)).wall_left(200.0), None);
+        assert_eq!(state(210.0, Some(600.0)).wall_left(200.0), Some(0.0));
+        assert_eq!(
+            [40.0, 1800.0, 11_520.0].map(duration),
+            ["40 s", "30 min", "3.2 h"]
+        );
+    }
 }

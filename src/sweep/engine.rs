@@ -21,7 +21,7 @@ use crate::store::{CaseRecord, ClaimResult, Store, StoreError};
 
 pub use super::recorder::{
     failed_state_path, prelude_path, resume_path, saved_failed_state, saved_prelude,
-    saved_runner_state, saved_state, states_dir,
+    saved_runner_state, saved_state, states_dir, SavedState,
 };
 
 /// Options of one sweep invocation.
@@ -218,7 +218,10 @@ pub fn run_sweep(
         cases.iter().filter(|c| !only.contains(&c.id)).count()
     });
     let selected = if left_out > 0 {
-        format!(" ({} selected by --case)", cases.len() - left_out)
+        format!(
+            " ({} selected by --case or --where)",
+            cases.len() - left_out
+        )
     } else {
         String::new()
     };
@@ -504,7 +507,7 @@ fn run_one(case: &PlannedCase, ctx: &CaseContext<'_>) -> Result<CaseRun, StoreEr
 /// minutes instead of from t = 0; an older kept state is replaced. The step of the kept state, if
 /// the case had one.
 fn keep_failed_state(db: &std::path::Path, hash: &str) -> Option<u64> {
-    let (step, _, _) = saved_state(db, hash)?;
+    let step = saved_state(db, hash)?.step;
     std::fs::rename(resume_path(db, hash), failed_state_path(db, hash))
         .ok()
         .map(|()| step)

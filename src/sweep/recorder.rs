@@ -419,8 +419,33 @@ pub fn states_dir(db: &std::path::Path) -> PathBuf {
         .map_or_else(|| PathBuf::from("."), std::path::Path::to_path_buf)
 }
 
-/// The step, time and writing build of the saved state of a case, if it has a readable one.
-pub fn saved_state(db: &std::path::Path, hash: &str) -> Option<(u64, f64, String)> {
+/// What the header of a saved state says: where the case stands and what it took to get there.
+#[derive(Debug, Clone, PartialEq)]
+pub struct SavedState {
+    /// Steps taken.
+    pub step: u64,
+    /// Time reached.
+    pub t: f64,
+    /// The build that wrote it.
+    pub code_version: String,
+    /// Wall-clock seconds the case has run, over its attempts (absent in states written before
+    /// 2026-12-07).
+    pub wall_s: Option<f64>,
+}
+
+impl SavedState {
+    /// Wall-clock seconds until the case reaches `t_end` at its mean rate so far (simulated time
+    /// per wall-clock second over its attempts): an upper bound where early stop ends it sooner,
+    /// and a rough one with adaptive steps, which start small. `None` without a clock or a
+    /// time reached.
+    pub fn wall_left(&self, t_end: f64) -> Option<f64> {
+        let wall = self.wall_s.filter(|w| *w > 0.0)?;
+        (self.t > 0.0).then(|| (t_end - self.t).max(0.0) * wall / self.t)
+    }
+}
+
+/// The header of the saved state of a case, if it has a readable one.
+pub fn saved_state(db: &std::path::Path, hash: &str) -> Option<SavedState> {
     state_header(&resume_path(db, hash))
 }
 
@@ -430,26 +455,33 @@ pub fn saved_runner_state(db: &std::path::Path, hash: &str) -> Option<(u64, f64,
     ResumeFile::load(&resume_path(db, hash), hash).map(|r| (r.step, r.t, r.solver.get().into()))
 }
 
-/// The step, time and writing build of the state a failed case kept ([`failed_state_path`]),
-/// from which `--retry-failed` continues it.
-pub fn saved_failed_state(db: &std::path::Path, hash: &str) -> Option<(u64, f64, String)> {
+/// The header of the state a failed case kept ([`failed_state_path`]), from which
+/// `--retry-failed` continues it.
+pub fn saved_failed_state(db: &std::path::Path, hash: &str) -> Option<SavedState> {
     state_header(&failed_state_path(db, hash))
 }
 
-/// The step, time and writing build of the saved state at `path`, if it is readable.
-fn state_header(path: &std::path::Path) -> Option<(u64, f64, String)> {
+/// The header of the saved state at `path`, if it is readable.
+fn state_header(path: &std::path::Path) -> Option<SavedState> {
     #[derive(serde::Deserialize)]
     struct Header {
         format: u32,
         code_version: String,
         step: u64,
         t: f64,
+        #[serde(default)]
+        wall_s: Option<f64>,
     }
     let text = std::fs::read_to_string(path).ok()?;
     serde_json::from_str::<Header>(&text)
         .ok()
         .filter(|h| h.format == RESUME_FORMAT)
-        .map(|h| (h.step, h.t, h.code_version))
+        .map(|h| SavedState {
+            step: h.step,
+            t: h.t,
+            code_version: h.code_version,
+            wall_s: h.wall_s,
+        })
 }
 
 /// The prelude steps in the saved prelude state of a case (an extrusion's undisturbed flow), if

@@ -116,7 +116,7 @@ pub fn case_states(sub: &Submission, queue: Option<&[QueuedTask]>) -> Vec<CaseSt
                         log: None,
                     },
                     (None, Some(_)) => CaseState::Interrupted {
-                        saved: saved_state(&shard, &case).map(|(step, t, _)| (step, t)),
+                        saved: saved_state(&shard, &case).map(|s| (s.step, s.t)),
                     },
                     (None, None) => CaseState::NotRun,
                 },
