@@ -422,13 +422,18 @@ fn near_contact(hs: &[f64], cut: crate::xfem::CutOptions) -> anyhow::Result<bool
         )
     };
     let mut failures = Vec::new();
-    for pair in [Pair::Cylinders, Pair::Wall] {
+    for pair in [Pair::Cylinders, Pair::Wall, Pair::CoRotating] {
+        let motion = if pair == Pair::CoRotating {
+            "ω = 1 each; F the tangential force"
+        } else {
+            "V = 1"
+        };
         println!(
-            "\n{} (a = 1, η = 1, V = 1; F_lub = asymptote)\n{header}",
+            "\n{} (a = 1, η = 1, {motion}; F_lub = asymptote)\n{header}",
             pair.name()
         );
         let offsets: &[f64] = match pair {
-            Pair::Cylinders => &[0.0, 0.5],
+            Pair::Cylinders | Pair::CoRotating => &[0.0, 0.5],
             Pair::Wall => &[0.0],
         };
         let mut rows = Vec::new();

@@ -1,5 +1,6 @@
-//! Near-contact forces (issue 25): two cylinders squeezing the film between them, and a cylinder
-//! approaching a wall, in Stokes flow, against the lubrication asymptote.
+//! Near-contact forces (issue 25): two cylinders squeezing the film between them, a cylinder
+//! approaching a wall, and two cylinders rotating in the same sense (the film sheared, as between
+//! the particles of a string), in Stokes flow, against the lubrication asymptotes.
 //!
 //! # The asymptote (Reynolds' lubrication equation, leading order in ε = gap/a)
 //! Two surfaces approaching at relative speed W with the film thickness
@@ -17,6 +18,20 @@
 //! leading term this is; the relative corrections are O(√ε), the far field's O(ε^{3/2}).) So the
 //! ratio F_h/F_lub of a converged computation tends to 1 as g → 0, with a √ε slope; a mesh that
 //! does not resolve the film shows as a ratio leaving that trend.
+//!
+//! Two equal cylinders rotating at ω in the same sense shear the film between them: its
+//! surfaces slide past each other at U = 2ωa, with no net flux (the two surfaces' drag is
+//! antisymmetric), so the film is plane Couette flow at leading order, τ = ηU/h(x), and the
+//! tangential force on each is
+//!
+//! ```text
+//! co-rotating cylinders (ω each):  F_t = ηU ∫ dx/h = 2π η ω a (a/g)^{1/2}
+//! ```
+//!
+//! (relative corrections O(√ε) again; the torque adds a·F_t to a single cylinder's O(1)). The
+//! sheared film is linear across its thickness, so Q2 holds it on any mesh: its force needs no
+//! resolution, unlike the squeeze's parabolic profile (measured: within 0.1 % at a tenth of an
+//! element, docs/validation.md).
 //!
 //! # Set-up
 //! a = 1, η = 1, V = 1 (F is F/(ηV) per unit length). A closed box [−B, B]² with no-slip walls
@@ -49,16 +64,35 @@ pub enum Pair {
     Cylinders,
     /// One cylinder moving at V = 1 towards the wall y = −B.
     Wall,
+    /// Two equal cylinders on the x axis, each rotating at ω = 1 (counter-clockwise) in place.
+    CoRotating,
 }
 
 impl Pair {
-    /// The lubrication asymptote F/(ηV) at gap `g` (a = 1).
+    /// The lubrication asymptote F/(ηV) (co-rotating: F_t/(ηωa)) at gap `g` (a = 1).
     pub fn asymptote(self, g: f64) -> f64 {
-        let c = match self {
-            Pair::Cylinders => 3.0 * std::f64::consts::PI,
-            Pair::Wall => 3.0 * std::f64::consts::SQRT_2 * std::f64::consts::PI,
-        };
-        c * g.powf(-1.5)
+        use std::f64::consts::{PI, SQRT_2};
+        match self {
+            Pair::Cylinders => 3.0 * PI * g.powf(-1.5),
+            Pair::Wall => 3.0 * SQRT_2 * PI * g.powf(-1.5),
+            Pair::CoRotating => 2.0 * PI * g.powf(-0.5),
+        }
+    }
+
+    /// Whether a film must be resolved (one element across, [`RESOLVED_ELEMENTS`]) for its force
+    /// to converge: the squeeze's parabolic film must, the co-rotating pair's linear one need not.
+    pub fn needs_resolution(self) -> bool {
+        self != Pair::CoRotating
+    }
+
+    /// Agreement asked of the finest mesh with the asymptote at its smallest gap: the
+    /// squeeze's O(√ε) correction is ≈ 1 % at ε = 0.02 ([`ASYMPTOTE_TOL`]); the sheared film's
+    /// is larger, measured 0.6–0.7 √ε (9 % at ε = 0.02, 6.5 % at 0.01), so 10 % there.
+    pub fn asymptote_tol(self) -> f64 {
+        match self {
+            Pair::CoRotating => 0.10,
+            _ => ASYMPTOTE_TOL,
+        }
     }
 
     /// Short name for tables.
@@ -66,6 +100,7 @@ impl Pair {
         match self {
             Pair::Cylinders => "cylinder-cylinder",
             Pair::Wall => "cylinder-wall",
+            Pair::CoRotating => "co-rotating cylinders",
         }
     }
 }
@@ -150,17 +185,25 @@ pub fn contact_force(
         motion: Motion::Prescribed { u, omega: 0.0 },
     };
     let (grid, particles, offset) = match pair {
-        Pair::Cylinders => {
+        Pair::Cylinders | Pair::CoRotating => {
             // vertex lines at lo + k hn, one of them `offset` elements left of x = 0
             let n = ((2.0 * a + gap / 2.0 + margin) / hn).ceil();
             let lo = -(n + offset) * hn;
             let ax = Axis::banded(-BOX, BOX, lo, lo + (2.0 * n + 1.0) * hn, hn, GROWTH);
             let ay = Axis::banded(-BOX, BOX, -a - margin, a + margin, ht, GROWTH);
             let c = a + gap / 2.0;
-            let particles = vec![
+            let mut particles = vec![
                 prescribed([-c, 0.0], [1.0, 0.0]),
                 prescribed([c, 0.0], [-1.0, 0.0]),
             ];
+            if pair == Pair::CoRotating {
+                for p in &mut particles {
+                    p.motion = Motion::Prescribed {
+                        u: [0.0, 0.0],
+                        omega: 1.0,
+                    };
+                }
+            }
             (Mesh::rectangle(ax, ay, false), particles, offset)
         }
         Pair::Wall => {
@@ -181,7 +224,7 @@ pub fn contact_force(
     let elements = gaps(&grid, &centres, &vec![a; centres.len()])
         .into_iter()
         .find(|g| match pair {
-            Pair::Cylinders => g.between == Between::Particles(0, 1),
+            Pair::Cylinders | Pair::CoRotating => g.between == Between::Particles(0, 1),
             Pair::Wall => g.between == Between::BottomWall(0),
         })
         .map_or(0.0, |g| g.elements);
@@ -194,10 +237,11 @@ pub fn contact_force(
     st.pin_pressure();
     let sol = st.solve(&|_| [0.0, 0.0])?;
     // the hydrodynamic force resists the motion: −F e_x on the left cylinder (moving +x), +F e_y
-    // on the wall's cylinder (moving −y)
+    // on the wall's cylinder (moving −y), −F e_y on the left co-rotating cylinder (its surface at
+    // the film moving +y)
     let along_motion = |f: [f64; 2]| match pair {
         Pair::Cylinders => -f[0],
-        Pair::Wall => f[1],
+        Pair::Wall | Pair::CoRotating => f[1] * if pair == Pair::Wall { 1.0 } else { -1.0 },
     };
     let corrected = along_motion([sol.reaction[0][0], sol.reaction[0][1]]);
     // the correction's own share of the reaction (particle 0 is the first of each film here):
@@ -248,10 +292,9 @@ pub fn check(pair: Pair, rows: &[ContactForce]) -> Vec<String> {
         .map(|r| r.mesh.across)
         .fold(f64::INFINITY, f64::min);
     let on_finest = |r: &ContactForce| r.mesh.across == finest;
-    for r in rows
-        .iter()
-        .filter(|r| !on_finest(r) && r.elements() >= RESOLVED_ELEMENTS)
-    {
+    // a film whose force needs no resolution is judged at every thickness
+    let judged = |r: &ContactForce| !pair.needs_resolution() || r.elements() >= RESOLVED_ELEMENTS;
+    for r in rows.iter().filter(|r| !on_finest(r) && judged(r)) {
         let reference = rows
             .iter()
             .find(|f| on_finest(f) && f.gap == r.gap && f.offset == r.offset);
@@ -266,7 +309,7 @@ pub fn check(pair: Pair, rows: &[ContactForce]) -> Vec<String> {
         }
     }
     for r in rows {
-        let resolved = r.elements() >= RESOLVED_ELEMENTS;
+        let resolved = judged(r);
         if resolved && r.corrected != r.force {
             failures.push(format!(
                 "{}: gap {} on h = {} is resolved ({:.2} elements) but corrected ({} against {})",
@@ -299,11 +342,12 @@ pub fn check(pair: Pair, rows: &[ContactForce]) -> Vec<String> {
         .filter(|r| on_finest(r) && r.elements() >= ASYMPTOTE_MIN_ELEMENTS - 1e-9)
         .min_by(|p, q| p.gap.total_cmp(&q.gap));
     match smallest {
-        Some(r) if (r.ratio() - 1.0).abs() > ASYMPTOTE_TOL => failures.push(format!(
-            "{}: F/F_lub = {:.4} at gap {} on h = {finest} (|F/F_lub − 1| > {ASYMPTOTE_TOL})",
+        Some(r) if (r.ratio() - 1.0).abs() > pair.asymptote_tol() => failures.push(format!(
+            "{}: F/F_lub = {:.4} at gap {} on h = {finest} (|F/F_lub − 1| > {})",
             pair.name(),
             r.ratio(),
-            r.gap
+            r.gap,
+            pair.asymptote_tol()
         )),
         Some(_) => {}
         None => failures.push(format!(
@@ -392,5 +436,30 @@ mod tests {
         );
         let wall = Pair::Wall.asymptote(0.1) / Pair::Cylinders.asymptote(0.1);
         assert!((wall - std::f64::consts::SQRT_2).abs() < 1e-12);
+    }
+
+    /// The film between co-rotating cylinders (a string's particles) is sheared, linear across its
+    /// thickness, which Q2 holds on any mesh: at g = 0.05a its tangential force on a quarter and on
+    /// half an element agree within RESOLVED_TOL (measured 0.01 %), where the squeeze force of the
+    /// same film differs by 20 % (0.846 against 1.057 of F_lub, docs/validation.md).
+    #[test]
+    fn a_sheared_film_needs_no_resolution() {
+        let cut = CutOptions::default();
+        let force = |pair: Pair, h: f64| {
+            contact_force(pair, 0.05, FilmMesh::uniform(h), 0.5, cut)
+                .expect("solves")
+                .force
+        };
+        let rel = |pair: Pair| {
+            let (quarter, half) = (force(pair, 0.2), force(pair, 0.1));
+            (quarter - half).abs() / half
+        };
+        let sheared = rel(Pair::CoRotating);
+        assert!(sheared < RESOLVED_TOL, "sheared film: {sheared:.2e}");
+        let squeezed = rel(Pair::Cylinders);
+        assert!(
+            squeezed > 10.0 * RESOLVED_TOL,
+            "squeezed film: {squeezed:.2e}"
+        );
     }
 }
