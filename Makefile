@@ -54,6 +54,7 @@ validate: build
 	$(BIN) validate lab-frame
 	$(BIN) validate couette-frame
 	$(BIN) validate near-contact
+	$(BIN) validate film-polymer
 	$(BIN) validate extrudate-swell --graded --h 0.05,0.025,0.0125 --de 0,0.25,0.5,0.6,0.75
 	$(CARGO) test $(PROFILE) -- --ignored
 

@@ -231,6 +231,11 @@ pub enum Study {
     /// cylinder approaching a wall, gaps 0.5a … 0.01a, against the lubrication asymptote, on the
     /// element sizes `--h` (units of a; default 0.2,0.1,0.05).
     NearContact,
+    /// The polymer's forces across a sheared film (issue 25): two cylinders co-rotating in a
+    /// Giesekus fluid (λω = 0.13, α = 0.01, β = 0.1) at gaps 0.2a and 0.05a, steady, on the
+    /// element sizes `--h` (default 0.2,0.1,0.05,0.025): the normal force a film pushes them apart
+    /// with, against the elements across it (≈ 5 min).
+    FilmPolymer,
     /// The explicit coupling's wall mode in the Couette cell (issue 26): the undisturbed flow
     /// (45×240, R2/R1 = 4, β = 0.1, α = 0.01) at `--wi` (default 1), seeded with an m = 9
     /// perturbation at the inner cylinder, to t* = 36 with the explicit coupling at `--dt`

@@ -276,6 +276,7 @@ pub(super) fn validate_particles(
             println!("tolerance (following mesh): {COUETTE_FOLLOW_TOL}");
         }
         Study::NearContact => ok &= near_contact(hs, cut)?,
+        Study::FilmPolymer => ok &= film_polymer(hs, cut)?,
         Study::StokesMms
         | Study::Couette
         | Study::Cylinder
@@ -390,6 +391,8 @@ pub(super) fn default_meshes(study: Study, wi: f64) -> Vec<f64> {
         Vec::new()
     } else if study == Study::NearContact {
         vec![0.2, 0.1, 0.05]
+    } else if study == Study::FilmPolymer {
+        vec![0.2, 0.1, 0.05, 0.025]
     } else if study == Study::ExtrudateSwell {
         vec![0.1, 0.05, 0.025]
     } else if wi == 0.0 {
@@ -465,6 +468,39 @@ fn near_contact(hs: &[f64], cut: crate::xfem::CutOptions) -> anyhow::Result<bool
             )?);
         }
     }
+    for f in &failures {
+        println!("FAIL {f}");
+    }
+    Ok(failures.is_empty())
+}
+
+/// `xpflow validate film-polymer`: the steady forces of two co-rotating cylinders in a Giesekus
+/// fluid per gap and element size, and the verdict of `validate::film_polymer::check`.
+fn film_polymer(hs: &[f64], cut: crate::xfem::CutOptions) -> anyhow::Result<bool> {
+    use crate::validate::film_polymer::{check, film_forces, GAPS, LAMBDA};
+    println!(
+        "co-rotating cylinders in a Giesekus fluid (a = 1, ω = 1, λ = {LAMBDA}, α = 0.01, β = 0.1), \
+         steady: forces on the left one\n\
+         | gap/a | h/a | gap/h | local Wi 2λωa/g | normal (apart) | tangential | torque | s |\n\
+         |---|---|---|---|---|---|---|---|"
+    );
+    let mut rows = Vec::new();
+    for gap in GAPS {
+        for &h in hs {
+            let f = film_forces(gap, h, cut)?;
+            println!(
+                "| {gap} | {h} | {:.2} | {:.1} | {:.4} | {:.4} | {:.4} | {:.0} |",
+                f.elements(),
+                2.0 * LAMBDA / gap,
+                f.normal,
+                f.tangential,
+                f.torque,
+                f.seconds
+            );
+            rows.push(f);
+        }
+    }
+    let failures = check(&rows);
     for f in &failures {
         println!("FAIL {f}");
     }

@@ -3,6 +3,7 @@
 
 pub mod couette_wall_mode;
 pub mod extrudate;
+pub mod film_polymer;
 pub mod moving;
 pub mod near_contact;
 pub mod particles;
