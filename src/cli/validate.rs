@@ -477,26 +477,49 @@ fn near_contact(hs: &[f64], cut: crate::xfem::CutOptions) -> anyhow::Result<bool
 /// `xpflow validate film-polymer`: the steady forces of two co-rotating cylinders in a Giesekus
 /// fluid per gap and element size, and the verdict of `validate::film_polymer::check`.
 fn film_polymer(hs: &[f64], cut: crate::xfem::CutOptions) -> anyhow::Result<bool> {
-    use crate::validate::film_polymer::{check, film_forces, GAPS, LAMBDA, MAX_ELEMENTS};
+    use crate::validate::film_polymer::{
+        check, film_forces, FilmForces, ALONG, GAPS, LAMBDA, MAX_ELEMENTS, RESOLVED_ELEMENTS,
+    };
     println!(
         "co-rotating cylinders in a Giesekus fluid (a = 1, ω = 1, λ = {LAMBDA}, α = 0.01, β = 0.1), \
          steady: forces on the left one\n\
-         | gap/a | h/a | gap/h | local Wi 2λωa/g | normal (apart) | tangential | torque | s |\n\
-         |---|---|---|---|---|---|---|---|"
+         | gap/a | h/a across | h/a along | gap/h | local Wi 2λωa/g | normal (apart) | tangential | torque | s |\n\
+         |---|---|---|---|---|---|---|---|---|"
     );
+    let print = |f: &FilmForces| {
+        println!(
+            "| {} | {} | {} | {:.2} | {:.1} | {:.4} | {:.4} | {:.4} | {:.0} |",
+            f.gap,
+            f.h,
+            f.along,
+            f.elements(),
+            2.0 * LAMBDA / f.gap,
+            f.normal,
+            f.tangential,
+            f.torque,
+            f.seconds
+        )
+    };
     let mut rows = Vec::new();
     for gap in GAPS {
         for &h in hs.iter().filter(|&&h| gap / h <= MAX_ELEMENTS + 1e-9) {
-            let f = film_forces(gap, h, cut)?;
-            println!(
-                "| {gap} | {h} | {:.2} | {:.1} | {:.4} | {:.4} | {:.4} | {:.0} |",
-                f.elements(),
-                2.0 * LAMBDA / gap,
-                f.normal,
-                f.tangential,
-                f.torque,
-                f.seconds
-            );
+            let f = film_forces(gap, h, h, cut)?;
+            print(&f);
+            rows.push(f);
+        }
+    }
+    // the thin film resolved across (the finest mesh, if it has the elements), coarser along it
+    let thin = GAPS.iter().copied().fold(f64::INFINITY, f64::min);
+    if let Some(h) = hs
+        .iter()
+        .copied()
+        .filter(|h| thin / h >= RESOLVED_ELEMENTS - 1e-9)
+        .reduce(f64::min)
+    {
+        println!("the thin film resolved across it, coarser along it:");
+        for along in ALONG.into_iter().filter(|&along| along > h) {
+            let f = film_forces(thin, h, along, cut)?;
+            print(&f);
             rows.push(f);
         }
     }

@@ -38,6 +38,9 @@ pub const TANGENTIAL_TOL: f64 = 0.05;
 /// Agreement asked of a resolved film's (at least [`RESOLVED_ELEMENTS`] across) normal force
 /// with the finest mesh's.
 pub const NORMAL_TOL: f64 = 0.05;
+/// Elements along the film of the anisotropic rows: the film's width is ≈ √(a g) (0.22a at
+/// g = 0.05a), and these rows ask whether the elements across it are what matters.
+pub const ALONG: [f64; 2] = [0.1, 0.05];
 /// Elements across the film from which its normal force is judged against the finest mesh's:
 /// measured, one element holds it to 1.7 % at local Wi 1.3 (g = 0.2a) but 26 % low at 5.2
 /// (g = 0.05a); four hold it to 0.03 % and ≈ 3 % of the extrapolated value.
@@ -54,8 +57,10 @@ pub const CONVERGED_CHANGE: f64 = 0.005;
 pub struct FilmForces {
     /// Gap g/a.
     pub gap: f64,
-    /// Element size across (and along) the film.
+    /// Element size across the film (along the line of centres).
     pub h: f64,
+    /// Element size along the film (across the line of centres).
+    pub along: f64,
     /// Force along the line of centres, positive pushing the cylinders apart.
     pub normal: f64,
     /// Tangential force, positive resisting the rotation.
@@ -73,16 +78,22 @@ impl FilmForces {
     }
 }
 
-/// Runs the pair at gap `gap` on element size `h` to [`T_END`].
+/// Runs the pair at gap `gap` to [`T_END`] on elements of size `h` across the film (along the
+/// line of centres) and `along` along it.
 ///
 /// # Errors
 /// If the cut cells or a step fail.
-pub fn film_forces(gap: f64, h: f64, cut: CutOptions) -> Result<FilmForces, StudyError> {
+pub fn film_forces(
+    gap: f64,
+    h: f64,
+    along: f64,
+    cut: CutOptions,
+) -> Result<FilmForces, StudyError> {
     let (a, margin, offset) = (1.0, 0.5, 0.5);
     let n = ((2.0 * a + gap / 2.0 + margin) / h).ceil();
     let lo = -(n + offset) * h;
     let ax = Axis::banded(-12.0, 12.0, lo, lo + (2.0 * n + 1.0) * h, h, 1.12);
-    let ay = Axis::banded(-12.0, 12.0, -a - margin, a + margin, h, 1.12);
+    let ay = Axis::banded(-12.0, 12.0, -a - margin, a + margin, along, 1.12);
     let c = a + gap / 2.0;
     let particles: Vec<Particle> = [-c, c]
         .iter()
@@ -111,6 +122,7 @@ pub fn film_forces(gap: f64, h: f64, cut: CutOptions) -> Result<FilmForces, Stud
     Ok(FilmForces {
         gap,
         h,
+        along,
         normal: -f[0],
         tangential: -f[1],
         torque: -f[2],
@@ -118,7 +130,8 @@ pub fn film_forces(gap: f64, h: f64, cut: CutOptions) -> Result<FilmForces, Stud
     })
 }
 
-/// The verdict on rows of several element sizes per gap (the finest is the smallest `h`):
+/// The verdict on rows of several element sizes per gap (the finest is the smallest `h` of the
+/// square elements; a row coarser along the film than across it is judged against it too):
 /// failures as readable lines, empty when it passes. The tangential force is judged on every
 /// mesh, the normal force against the finest from [`RESOLVED_ELEMENTS`] on, and on each gap the
 /// normal force must converge: its change between the two finest meshes smaller than between the
@@ -126,11 +139,16 @@ pub fn film_forces(gap: f64, h: f64, cut: CutOptions) -> Result<FilmForces, Stud
 /// shown, not judged.
 pub fn check(rows: &[FilmForces]) -> Vec<String> {
     let mut failures = Vec::new();
+    let square = |r: &&FilmForces| r.along == r.h;
     let mut gaps: Vec<f64> = rows.iter().map(|r| r.gap).collect();
     gaps.sort_by(f64::total_cmp);
     gaps.dedup();
     for gap in gaps {
-        let mut on: Vec<&FilmForces> = rows.iter().filter(|r| r.gap == gap).collect();
+        let mut on: Vec<&FilmForces> = rows
+            .iter()
+            .filter(|r| r.gap == gap)
+            .filter(square)
+            .collect();
         on.sort_by(|p, q| q.h.total_cmp(&p.h));
         if let [.., a, b, c] = on.as_slice() {
             let (before, last) = ((b.normal - a.normal).abs(), (c.normal - b.normal).abs());
@@ -145,7 +163,7 @@ pub fn check(rows: &[FilmForces]) -> Vec<String> {
     for r in rows {
         let finest = rows
             .iter()
-            .filter(|f| f.gap == r.gap)
+            .filter(|f| f.gap == r.gap && f.along == f.h)
             .min_by(|p, q| p.h.total_cmp(&q.h))
             .expect("r itself");
         let rel = |a: f64, b: f64| (a - b).abs() / b.abs();
@@ -175,6 +193,7 @@ mod tests {
         FilmForces {
             gap,
             h,
+            along: h,
             normal,
             tangential,
             torque: 0.0,
@@ -197,20 +216,29 @@ mod tests {
             row(0.05, 0.05, 17.28, 21.67),
             row(0.05, 0.025, 21.30, 21.77),
             row(0.05, 0.0125, 22.76, 21.72),
+            FilmForces {
+                along: 0.1,
+                ..row(0.05, 0.0125, 23.17, 21.94)
+            },
         ];
         assert!(check(&measured).is_empty(), "{:?}", check(&measured));
-        // a resolved film's normal force off the finest
+        // a film resolved across but not along it is judged against the finest square mesh
         let mut off = measured;
+        off[9].normal = 1.1 * 22.76;
+        assert_eq!(check(&off).len(), 1, "{:?}", check(&off));
+        // a resolved film's normal force off the finest
+        off = measured;
         off[2].normal = 1.1 * 3.824;
         assert_eq!(check(&off).len(), 1, "{:?}", check(&off));
         // a tangential force off at a quarter of an element
         off = measured;
         off[4].tangential = 0.9 * 21.72;
         assert_eq!(check(&off).len(), 1);
-        // a thin film whose normal force moves more on the finest step than before
+        // a thin film whose normal force moves more on the finest step than before (and the
+        // anisotropic row, judged against that finest, then off it)
         off = measured;
         off[8].normal = 27.0;
-        assert_eq!(check(&off).len(), 1, "{:?}", check(&off));
+        assert_eq!(check(&off).len(), 2, "{:?}", check(&off));
     }
 
     /// A quarter-element film on the coarsest mesh (6 s): the polymer pushes the co-rotating
@@ -218,7 +246,7 @@ mod tests {
     /// film drags them (measured 30.6 and 20.9).
     #[test]
     fn the_polymer_pushes_co_rotating_cylinders_apart() {
-        let f = film_forces(0.05, 0.2, CutOptions::default()).expect("runs");
+        let f = film_forces(0.05, 0.2, 0.2, CutOptions::default()).expect("runs");
         assert!(f.normal > 10.0 && f.tangential > 10.0, "{f:?}");
     }
 }
