@@ -235,7 +235,7 @@ pub enum Study {
     /// Giesekus fluid (λω = 0.13, α = 0.01, β = 0.1) at gaps 0.2a and 0.05a, steady, on the
     /// element sizes `--h` (default 0.2,0.1,0.05,0.025,0.0125; films of more than 8 elements
     /// skipped): the normal force a film pushes them apart with, against the elements across it
-    /// (≈ 8 min).
+    /// (≈ 10 min).
     FilmPolymer,
     /// The explicit coupling's wall mode in the Couette cell (issue 26): the undisturbed flow
     /// (45×240, R2/R1 = 4, β = 0.1, α = 0.01) at `--wi` (default 1), seeded with an m = 9
