@@ -2,8 +2,8 @@
 
 Four figures, one per family parameter: `migration_r_by_r0` (curves differ in the initial position r0*),
 `migration_r_by_wi`, `migration_r_by_alpha` and `migration_r_by_eps`. One panel per combination of the other
-parameters (R2/R1, β, Wi, α, ε, r0*, mesh, Δt); a family needs at least two values of its parameter
-(r0*: one is enough). Shaded: radial positions a particle cannot reach, r* < a/(R2 − R1) or
+parameters (R2/R1, β, Wi, α, ε, r0*, mesh, Δt; the ε family's mesh, refined with ε, is in each curve's
+label instead); a family needs at least two values of its parameter (r0*: one is enough). Shaded: radial positions a particle cannot reach, r* < a/(R2 − R1) or
 r* > 1 − a/(R2 − R1).
 
 Inputs: cases (geometry = 'couette') ⋈ outcomes; samples (x, y of particle 0).
@@ -18,6 +18,9 @@ import figlib as fl
 
 #: Parameters that define a Couette case (panel keys).
 KEYS = ["ratio", "beta", "wi", "alpha", "eps", "r0", "mesh", "step", "settings"]
+#: Parameters a family may change with its own (the ε family refines the mesh with ε to keep a/h):
+#: left out of the panel keys and given in each curve's label instead.
+ALONG = {"eps": ["mesh"]}
 #: Caption of the shading, in every suptitle.
 SHADING = "grey: unreachable, r* < a/(R2 − R1) or r* > 1 − a/(R2 − R1)"
 #: Family parameter → (file suffix, words for titles).
@@ -35,7 +38,7 @@ def key_of(c: fl.Case, names) -> dict:
 
 def couette_families(cases, var: str, min_values: int):
     """[(panel parameters, cases sorted by var)] for the groups with ≥ min_values values of var."""
-    others = [k for k in KEYS if k != var]
+    others = [k for k in KEYS if k != var and k not in ALONG.get(var, [])]
     groups = fl.group(cases, key=lambda c: tuple(key_of(c, others).items()),
                       sort=lambda k: tuple(fl.sort_key(v) for _, v in k))
     out = []
@@ -96,7 +99,9 @@ def plot_family(f: fl.Figures, var: str) -> None:
                 s = r_star_series(f, c)
                 if s is None:
                     continue
-                line, = ax.plot(*s, lw=1.4, ls=fl.LINESTYLES[i % len(fl.LINESTYLES)], label=f"{fl.SYMBOL[var]} = {fl.fmt(getattr(c, var))} ({fl.kind_text(c)})")
+                along = "".join(f", {k} {fl.fmt(getattr(c, k))}" for k in ALONG.get(var, []))
+                line, = ax.plot(*s, lw=1.4, ls=fl.LINESTYLES[i % len(fl.LINESTYLES)],
+                                label=f"{fl.SYMBOL[var]} = {fl.fmt(getattr(c, var))}{along} ({fl.kind_text(c)})")
                 ax.plot(s[0][0], s[1][0], "o", color=line.get_color(), ms=4)
             ax.set_ylim(0.0, 1.0)
             ax.set_xlabel("t* = t ω̄")
