@@ -478,10 +478,11 @@ fn near_contact(hs: &[f64], cut: crate::xfem::CutOptions) -> anyhow::Result<bool
 /// fluid per gap and element size, and the verdict of `validate::film_polymer::check`.
 fn film_polymer(hs: &[f64], cut: crate::xfem::CutOptions) -> anyhow::Result<bool> {
     use crate::validate::film_polymer::{
-        check, film_forces, FilmForces, ALONG, GAPS, LAMBDA, MAX_ELEMENTS, RESOLVED_ELEMENTS,
+        check, film_forces, FilmForces, ALONG, ALPHA, BETA, GAPS, LAMBDA, MAX_ELEMENTS,
+        RESOLVED_ELEMENTS,
     };
     println!(
-        "co-rotating cylinders in a Giesekus fluid (a = 1, ω = 1, λ = {LAMBDA}, α = 0.01, β = 0.1), \
+        "co-rotating cylinders in a Giesekus fluid (a = 1, ω = 1, λ = {LAMBDA}, α = {ALPHA}, β = {BETA}), \
          steady: forces on the left one\n\
          | gap/a | h/a across | h/a along | gap/h | local Wi 2λωa/g | normal (apart) | tangential | torque | s |\n\
          |---|---|---|---|---|---|---|---|---|"

@@ -12,19 +12,25 @@
 //!
 //! Set-up: a = 1, η0 = 1 (β = 0.1, α = 0.01, Table 5.2's fluid), each cylinder at ω = 1 with
 //! λ = [`LAMBDA`] (λω = 0.13: a string particle's ω* at Wi = 1), gaps [`GAPS`], the mesh of
-//! [`super::near_contact`] (uniform `h` over the cylinders and the film, the gap's midpoint
-//! mid-element, box ±12a with no-slip walls), Δt = [`DT`] to t = [`T_END`] = 10λ.
+//! [`super::near_contact`] ([`pair_mesh`]: `h` across the film, `along` along it, over the
+//! cylinders and the film, the gap's midpoint mid-element, box ±12a with no-slip walls), Δt =
+//! [`DT`] to t = [`T_END`] = 10λ.
 
-use crate::mesh::{Axis, Mesh, Side};
+use crate::mesh::Side;
 use crate::solver::cutcells::compute_cuts;
 use crate::solver::rigid::{Motion, Particle};
 use crate::solver::viscoelastic::{ViscoelasticFlow, ViscoelasticParams};
 use crate::xfem::CutOptions;
 
+use super::near_contact::{pair_mesh, FilmMesh};
 use super::xstokes::StudyError;
 
 /// Relaxation time (a = 1, ω = 1).
 pub const LAMBDA: f64 = 0.13;
+/// Giesekus mobility (Table 5.2's fluid).
+pub const ALPHA: f64 = 0.01;
+/// Viscosity ratio η_s/η0 (Table 5.2's fluid).
+pub const BETA: f64 = 0.1;
 /// Gaps g/a: one resolved from h = 0.2a on, one a quarter of an element there (local Wi 1.3
 /// and 5.2).
 pub const GAPS: [f64; 2] = [0.2, 0.05];
@@ -89,11 +95,8 @@ pub fn film_forces(
     along: f64,
     cut: CutOptions,
 ) -> Result<FilmForces, StudyError> {
-    let (a, margin, offset) = (1.0, 0.5, 0.5);
-    let n = ((2.0 * a + gap / 2.0 + margin) / h).ceil();
-    let lo = -(n + offset) * h;
-    let ax = Axis::banded(-12.0, 12.0, lo, lo + (2.0 * n + 1.0) * h, h, 1.12);
-    let ay = Axis::banded(-12.0, 12.0, -a - margin, a + margin, along, 1.12);
+    let a = 1.0;
+    let mesh = pair_mesh(gap, FilmMesh { across: h, along }, 0.5);
     let c = a + gap / 2.0;
     let particles: Vec<Particle> = [-c, c]
         .iter()
@@ -106,9 +109,8 @@ pub fn film_forces(
             },
         })
         .collect();
-    let mesh = Mesh::rectangle(ax, ay, false);
     let cuts = compute_cuts(&mesh, &particles, None, cut)?;
-    let params = ViscoelasticParams::new(0.1, 0.9, LAMBDA, 0.01, DT, T_END);
+    let params = ViscoelasticParams::new(BETA, 1.0 - BETA, LAMBDA, ALPHA, DT, T_END);
     let mut flow = ViscoelasticFlow::with_particles(mesh, params, particles, cuts)?;
     for side in [Side::Bottom, Side::Top, Side::Left, Side::Right] {
         flow.set_velocity(side, |_| [0.0, 0.0]);

@@ -163,6 +163,20 @@ impl ContactForce {
     }
 }
 
+/// The box around two cylinders of radius 1 on the x axis at gap `gap` (centres ±(1 + gap/2)):
+/// elements of `mesh.across` along x over the cylinders and the film, with a vertex line
+/// `offset` (in [0, 1)) of an element left of the gap's midpoint, `mesh.along` along y over
+/// them, growing by 12 % per element beyond.
+pub fn pair_mesh(gap: f64, mesh: FilmMesh, offset: f64) -> Mesh {
+    let (a, margin, h) = (1.0, 0.5, mesh.across);
+    // vertex lines at lo + k h, one of them `offset` elements left of x = 0
+    let n = ((2.0 * a + gap / 2.0 + margin) / h).ceil();
+    let lo = -(n + offset) * h;
+    let ax = Axis::banded(-BOX, BOX, lo, lo + (2.0 * n + 1.0) * h, h, GROWTH);
+    let ay = Axis::banded(-BOX, BOX, -a - margin, a + margin, mesh.along, GROWTH);
+    Mesh::rectangle(ax, ay, false)
+}
+
 /// The force resisting the approach at gap `gap` on the element sizes `mesh` near the film. For
 /// two cylinders the gap's midpoint lies `offset` (in [0, 1)) of an element from a vertex line;
 /// the wall is a vertex line, so `offset` is ignored there.
@@ -179,39 +193,32 @@ pub fn contact_force(
     let a = 1.0;
     let margin = 0.5 * a;
     let (hn, ht) = (mesh.across, mesh.along);
-    let prescribed = |center: [f64; 2], u: [f64; 2]| Particle {
+    let prescribed = |center: [f64; 2], u: [f64; 2], omega: f64| Particle {
         center,
         radius: a,
-        motion: Motion::Prescribed { u, omega: 0.0 },
+        motion: Motion::Prescribed { u, omega },
     };
     let (grid, particles, offset) = match pair {
         Pair::Cylinders | Pair::CoRotating => {
-            // vertex lines at lo + k hn, one of them `offset` elements left of x = 0
-            let n = ((2.0 * a + gap / 2.0 + margin) / hn).ceil();
-            let lo = -(n + offset) * hn;
-            let ax = Axis::banded(-BOX, BOX, lo, lo + (2.0 * n + 1.0) * hn, hn, GROWTH);
-            let ay = Axis::banded(-BOX, BOX, -a - margin, a + margin, ht, GROWTH);
             let c = a + gap / 2.0;
-            let mut particles = vec![
-                prescribed([-c, 0.0], [1.0, 0.0]),
-                prescribed([c, 0.0], [-1.0, 0.0]),
+            // towards each other at V = 1, or each rotating at ω = 1 in place
+            let (v, omega) = if pair == Pair::CoRotating {
+                (0.0, 1.0)
+            } else {
+                (1.0, 0.0)
+            };
+            let particles = vec![
+                prescribed([-c, 0.0], [v, 0.0], omega),
+                prescribed([c, 0.0], [-v, 0.0], omega),
             ];
-            if pair == Pair::CoRotating {
-                for p in &mut particles {
-                    p.motion = Motion::Prescribed {
-                        u: [0.0, 0.0],
-                        omega: 1.0,
-                    };
-                }
-            }
-            (Mesh::rectangle(ax, ay, false), particles, offset)
+            (pair_mesh(gap, mesh, offset), particles, offset)
         }
         Pair::Wall => {
             let ax = Axis::banded(-BOX, BOX, -a - margin, a + margin, ht, GROWTH);
             // whole elements of hn from the wall: gap/hn of them across the film
             let n = ((2.0 * a + gap + margin) / hn).ceil();
             let ay = Axis::banded(-BOX, BOX, -BOX, -BOX + n * hn, hn, GROWTH);
-            let particles = vec![prescribed([0.0, -BOX + gap + a], [0.0, -1.0])];
+            let particles = vec![prescribed([0.0, -BOX + gap + a], [0.0, -1.0], 0.0)];
             (Mesh::rectangle(ax, ay, false), particles, 0.0)
         }
     };
@@ -241,7 +248,8 @@ pub fn contact_force(
     // the film moving +y)
     let along_motion = |f: [f64; 2]| match pair {
         Pair::Cylinders => -f[0],
-        Pair::Wall | Pair::CoRotating => f[1] * if pair == Pair::Wall { 1.0 } else { -1.0 },
+        Pair::Wall => f[1],
+        Pair::CoRotating => -f[1],
     };
     let corrected = along_motion([sol.reaction[0][0], sol.reaction[0][1]]);
     // the correction's own share of the reaction (particle 0 is the first of each film here):
