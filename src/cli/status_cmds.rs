@@ -107,7 +107,7 @@ pub fn run_status_to(args: &StatusArgs, out: &mut dyn Write) -> anyhow::Result<E
             .and_then(|(s, t_end)| s.wall_left(t_end))
             .map_or_else(|| "-".to_string(), duration);
         let saved = match state {
-            Some(s) => format!("step {}, t = {:.2}", s.step, s.t),
+            Some(s) => s.to_string(),
             None => match crate::sweep::engine::saved_prelude(db, &c.hash) {
                 Some(steps) => format!("prelude step {steps} (t = 0 follows it)"),
                 None => "none (restarts at t = 0)".into(),
@@ -174,7 +174,7 @@ fn write_failed(
     };
     for (db, c) in failed {
         let kept = match crate::sweep::engine::saved_failed_state(db, &c.hash) {
-            Some(s) => format!("step {}, t = {:.2}", s.step, s.t),
+            Some(s) => s.to_string(),
             None => "none (restarts at t = 0)".into(),
         };
         f.rows.push(vec![

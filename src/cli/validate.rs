@@ -504,7 +504,7 @@ fn film_polymer(hs: &[f64], cut: crate::xfem::CutOptions) -> anyhow::Result<bool
     let mut rows = Vec::new();
     for gap in GAPS {
         for &h in hs.iter().filter(|&&h| gap / h <= MAX_ELEMENTS + 1e-9) {
-            let f = film_forces(gap, h, h, cut)?;
+            let f = film_forces(gap, h, h, LAMBDA, cut)?;
             print(&f);
             rows.push(f);
         }
@@ -519,7 +519,7 @@ fn film_polymer(hs: &[f64], cut: crate::xfem::CutOptions) -> anyhow::Result<bool
     {
         println!("the thin film resolved across it, coarser along it:");
         for along in ALONG.into_iter().filter(|&along| along > h) {
-            let f = film_forces(thin, h, along, cut)?;
+            let f = film_forces(thin, h, along, LAMBDA, cut)?;
             print(&f);
             rows.push(f);
         }

@@ -158,11 +158,13 @@ impl Store {
                             json_extract(c.final_json, '$.gap_elements'), c.owner, c.owner_pid
                      FROM case_outcomes c{cond} ORDER BY c.{rows}, c.id"
                 );
+                let host = super::hostname();
                 let mut cases = self.rows(&sql, &args)?;
                 for r in &mut cases {
                     let pid = r.pop().and_then(|v| v.as_i64());
                     let owner = r.pop();
-                    r[2] = interrupted_or(&r[2], owner.as_ref().and_then(Value::as_str), pid);
+                    r[2] =
+                        interrupted_or(&r[2], owner.as_ref().and_then(Value::as_str), pid, &host);
                 }
                 Ok(outcomes::pivot(rows, cols, cases))
             }
@@ -224,11 +226,13 @@ impl Store {
                             json_extract(c.final_json, '$.gap_elements_min'), c.wall_s,
                             json_extract(c.final_json, '$.cpu_s'), c.error, c.owner, c.owner_pid FROM case_outcomes c{cond} ORDER BY c.id"
                 );
+                let host = super::hostname();
                 let mut rows = self.rows(&sql, &args)?;
                 for r in &mut rows {
                     let pid = r.pop().and_then(|v| v.as_i64());
                     let owner = r.pop();
-                    r[2] = interrupted_or(&r[2], owner.as_ref().and_then(Value::as_str), pid);
+                    r[2] =
+                        interrupted_or(&r[2], owner.as_ref().and_then(Value::as_str), pid, &host);
                     // the mean gap describes a string; for other outcomes it is the distance
                     // between particles that never chained (4960a after a jump), not a result
                     if r[3] != "string" {
@@ -385,11 +389,9 @@ impl Store {
 }
 
 /// A case's status as the tables show it: `interrupted` for a case `running` in the database
-/// whose process (`owner`, `pid`) is gone.
-fn interrupted_or(status: &Value, owner: Option<&str>, pid: Option<i64>) -> Value {
-    if status == "running"
-        && super::status::owner_alive(owner, pid, &super::hostname()) == Some(false)
-    {
+/// whose process (`owner`, `pid`) on this host (`host`) is gone.
+fn interrupted_or(status: &Value, owner: Option<&str>, pid: Option<i64>, host: &str) -> Value {
+    if status == "running" && super::status::owner_alive(owner, pid, host) == Some(false) {
         json!("interrupted")
     } else {
         status.clone()

@@ -444,6 +444,13 @@ impl SavedState {
     }
 }
 
+impl std::fmt::Display for SavedState {
+    /// Where it stands, as `xpflow status` lists it: `step 836, t = 33.40`.
+    fn fmt(&self, f: &mut std::fmt::Formatter<'_>) -> std::fmt::Result {
+        write!(f, "step {}, t = {:.2}", self.step, self.t)
+    }
+}
+
 /// The header of the saved state of a case, if it has a readable one.
 pub fn saved_state(db: &std::path::Path, hash: &str) -> Option<SavedState> {
     state_header(&resume_path(db, hash))

@@ -177,6 +177,20 @@ pub fn pair_mesh(gap: f64, mesh: FilmMesh, offset: f64) -> Mesh {
     Mesh::rectangle(ax, ay, false)
 }
 
+/// The two cylinders of [`pair_mesh`] (radius 1, centres ±(1 + gap/2) on the x axis), moving
+/// towards each other at `v` each and rotating at `omega` each (counter-clockwise).
+pub fn pair_particles(gap: f64, v: f64, omega: f64) -> Vec<Particle> {
+    let c = 1.0 + gap / 2.0;
+    [(-c, v), (c, -v)]
+        .into_iter()
+        .map(|(x, u)| Particle {
+            center: [x, 0.0],
+            radius: 1.0,
+            motion: Motion::Prescribed { u: [u, 0.0], omega },
+        })
+        .collect()
+}
+
 /// The force resisting the approach at gap `gap` on the element sizes `mesh` near the film. For
 /// two cylinders the gap's midpoint lies `offset` (in [0, 1)) of an element from a vertex line;
 /// the wall is a vertex line, so `offset` is ignored there.
@@ -200,18 +214,17 @@ pub fn contact_force(
     };
     let (grid, particles, offset) = match pair {
         Pair::Cylinders | Pair::CoRotating => {
-            let c = a + gap / 2.0;
             // towards each other at V = 1, or each rotating at ω = 1 in place
             let (v, omega) = if pair == Pair::CoRotating {
                 (0.0, 1.0)
             } else {
                 (1.0, 0.0)
             };
-            let particles = vec![
-                prescribed([-c, 0.0], [v, 0.0], omega),
-                prescribed([c, 0.0], [-v, 0.0], omega),
-            ];
-            (pair_mesh(gap, mesh, offset), particles, offset)
+            (
+                pair_mesh(gap, mesh, offset),
+                pair_particles(gap, v, omega),
+                offset,
+            )
         }
         Pair::Wall => {
             let ax = Axis::banded(-BOX, BOX, -a - margin, a + margin, ht, GROWTH);
@@ -464,6 +477,13 @@ mod tests {
         };
         let sheared = rel(Pair::CoRotating);
         assert!(sheared < RESOLVED_TOL, "sheared film: {sheared:.2e}");
+        // and it follows the asymptote 2πηωa(a/g)^{1/2} from below within its O(√ε) correction
+        // (measured 0.856 at ε = 0.05: 1 − 0.64 √ε)
+        let ratio = force(Pair::CoRotating, 0.1) / Pair::CoRotating.asymptote(0.05);
+        assert!(
+            ratio < 1.0 && 1.0 - ratio < 0.05f64.sqrt(),
+            "F_t/F_lub = {ratio}"
+        );
         let squeezed = rel(Pair::Cylinders);
         assert!(
             squeezed > 10.0 * RESOLVED_TOL,
