@@ -159,6 +159,7 @@ fn a_restored_run_continues_the_saved_one() {
                     base: mesh,
                     x: follow,
                     y: follow,
+                    films: None,
                 }
                 .into()
             } else {

@@ -478,8 +478,8 @@ fn near_contact(hs: &[f64], cut: crate::xfem::CutOptions) -> anyhow::Result<bool
 /// fluid per gap and element size, and the verdict of `validate::film_polymer::check`.
 fn film_polymer(hs: &[f64], cut: crate::xfem::CutOptions) -> anyhow::Result<bool> {
     use crate::validate::film_polymer::{
-        check, film_forces, FilmForces, ALONG, ALPHA, BETA, GAPS, LAMBDA, MAX_ELEMENTS,
-        RESOLVED_ELEMENTS,
+        check, film_forces, film_forces_refined, FilmForces, ALONG, ALPHA, BETA, FILM_BASE,
+        FILM_ELEMENTS, GAPS, LAMBDA, MAX_ELEMENTS, RESOLVED_ELEMENTS,
     };
     println!(
         "co-rotating cylinders in a Giesekus fluid (a = 1, ω = 1, λ = {LAMBDA}, α = {ALPHA}, β = {BETA}), \
@@ -523,6 +523,14 @@ fn film_polymer(hs: &[f64], cut: crate::xfem::CutOptions) -> anyhow::Result<bool
             print(&f);
             rows.push(f);
         }
+    }
+    // the thin film on the coarsest mesh with its columns refined at the film only (what a
+    // following mesh with `films` gives a string)
+    println!("the thin film on h/a = {FILM_BASE}, the columns refined at the film (`films`):");
+    for elements in FILM_ELEMENTS {
+        let f = film_forces_refined(thin, FILM_BASE, elements, LAMBDA, cut)?;
+        print(&f);
+        rows.push(f);
     }
     let failures = check(&rows);
     for f in &failures {

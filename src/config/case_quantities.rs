@@ -7,7 +7,15 @@ use serde_json::{json, Value};
 
 use super::case::{CaseSpec, FrameChoice, Geometry, Layout, Model, DEFAULT_EXTRUSION_HEIGHT};
 use crate::geometry::{layout, Extrusion};
-use crate::mesh::{Axis, FollowingMesh, Mesh, Shape};
+use crate::mesh::{Axis, Films, FollowingMesh, Mesh, Shape};
+
+/// Reach of the film refinement (`numerics.follow.films`), in radii: the zone of a film between
+/// neighbours of a string (centres ≈ 2a apart) stops short of the next film, and holds 12
+/// elements each side at a/8 (the core of four elements across takes about eight).
+pub const FILM_REACH: f64 = 1.5;
+/// Largest refinement at a film (`numerics.follow.films`): a/8 → a/256, four elements across a
+/// film of 0.016a; thinner films (near contact) get fewer.
+pub const FILM_MAX_RATIO: f64 = 32.0;
 
 /// The columns of a case's parameters in the results database (`cases`), in the order of
 /// [`CaseSpec::parameter_columns`]: what `xpflow query --where` and `xpflow sweep --where` select by.
@@ -125,7 +133,13 @@ impl CaseSpec {
             Shape::Rectangle => None,
         };
         let [x, y] = f.axes(a, arc);
-        Some(FollowingMesh { base, x, y })
+        let films = f.films.map(|elements| Films {
+            radius: a,
+            elements,
+            max_ratio: FILM_MAX_RATIO,
+            reach: FILM_REACH * a,
+        });
+        Some(FollowingMesh { base, x, y, films })
     }
 
     /// Initial particle centres in the order the particles are numbered everywhere else.

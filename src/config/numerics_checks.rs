@@ -81,6 +81,21 @@ impl CaseSpec {
                     ));
                 }
             }
+            if let Some(e) = f.films {
+                if !matches!(self.geometry, Geometry::ConfinedShear { .. }) {
+                    return Err(SpecError::new(
+                        "numerics.follow.films",
+                        "the film refinement applies to the confined-shear channel only; remove \
+                         the field",
+                    ));
+                }
+                if !(e >= 1.0 && e.is_finite()) {
+                    return Err(SpecError::new(
+                        "numerics.follow.films",
+                        format!("elements across a film must be ≥ 1 (got {e})"),
+                    ));
+                }
+            }
             if !(f.core > 0.0 && f.reach > f.core && f.reach.is_finite()) {
                 return Err(SpecError::new(
                     "numerics.follow",

@@ -27,6 +27,7 @@
 //! all particles must fit with the rest at most `COARSEST` times coarser.
 
 use super::equidistribute::{components, solve, Component};
+use super::films::Films;
 use super::{Axis, Mesh, Shape};
 
 /// A computational mesh that follows the particles (a tensor-product variant of thesis
@@ -42,6 +43,9 @@ pub struct FollowingMesh {
     pub x: Follow,
     /// Refinement of the rows (across the flow: y or r).
     pub y: Follow,
+    /// Refinement of both axes at the films between near particles, after the above
+    /// (rectangles only).
+    pub films: Option<Films>,
 }
 
 impl FollowingMesh {
@@ -68,6 +72,19 @@ impl FollowingMesh {
             .map_err(|e| format!("along the flow: {e}"))?;
         let ay = follow_axis(&base.ay, &cy, &self.y, None)
             .map_err(|e| format!("across the flow: {e}"))?;
+        let (ax, ay) = match (&self.films, base.shape) {
+            (Some(films), Shape::Rectangle) => {
+                let [fx, fy] = films.between(centres, period);
+                let ax = films
+                    .refine(&ax, &fx, period)
+                    .map_err(|e| format!("at a film, along the flow: {e}"))?;
+                let ay = films
+                    .refine(&ay, &fy, None)
+                    .map_err(|e| format!("at a film, across the flow: {e}"))?;
+                (ax, ay)
+            }
+            _ => (ax, ay),
+        };
         Ok(base.with_axes(ax, ay))
     }
 }

@@ -58,6 +58,9 @@ pub enum StudyError {
     /// The viscoelastic time stepping failed.
     #[error(transparent)]
     Visco(#[from] crate::solver::viscoelastic::ViscoelasticError),
+    /// The mesh could not be built as asked (e.g. a refinement without room).
+    #[error(transparent)]
+    Mesh(#[from] crate::mesh::FollowError),
 }
 
 /// Minimum fitted rates required for the §2.4 study (issue 3: velocity 2.7, pressure 1.7,
