@@ -11,7 +11,7 @@ use std::time::{Duration, Instant};
 use xpflow::cli::status_cmds::{run_status_to, StatusArgs};
 use xpflow::config::{CaseSpec, SweepSpec};
 use xpflow::observe::OutcomeKind;
-use xpflow::store::query::QueryKind;
+use xpflow::store::query::{CaseAxis, QueryKind};
 use xpflow::store::{Format, Store};
 use xpflow::sweep::engine::{failed_state_path, resume_path};
 use xpflow::sweep::{case_id, expand, run_sweep, FakeBehaviour, FakeRunner, SweepOptions};
@@ -139,6 +139,19 @@ fn outcomes_divergence_and_rerun() {
         .unwrap();
     let csv = table.render(Format::Csv);
     assert!(csv.starts_with("Wi,N=2,N=3\n1.0,-,-\n2.0,+,+\n"), "{csv}");
+    // the outcomes pivoted on a case-file setting read from the stored case: N by its path
+    let by_setting = QueryKind::Outcomes {
+        rows: CaseAxis::parse("wi").unwrap(),
+        cols: CaseAxis::parse("particles.layout.string.n").unwrap(),
+    };
+    let csv = store
+        .query(&by_setting, Some("outcomes"), &[])
+        .unwrap()
+        .render(Format::Csv);
+    let head = "wi,particles.layout.string.n=2,particles.layout.string.n=3\n";
+    assert!(csv.starts_with(head), "{csv}");
+    assert!(csv.contains("\n2.0,string "), "{csv}");
+    assert!(CaseAxis::parse("particles.Layout").is_err() && CaseAxis::parse("x").is_err());
     // a string that formed on a gap of fewer than two elements is marked '+?' (the fake runner
     // has no mesh: the warning is written as the classifier would)
     store

@@ -6,7 +6,7 @@ use std::path::PathBuf;
 use std::process::ExitCode;
 
 use super::sweep_cmds::invalid;
-use crate::store::query::{Filter, QueryKind, FILTER_COLUMNS, PARAMETER_COLUMNS};
+use crate::store::query::{CaseAxis, Filter, QueryKind, FILTER_COLUMNS};
 use crate::store::{Format, Store};
 
 /// What `xpflow query` tabulates.
@@ -58,10 +58,11 @@ pub struct QueryArgs {
     /// Parameter column ordering `final-r` [default: r0].
     #[arg(long, default_value = "r0")]
     pub by: String,
-    /// Parameter column of the rows of `outcomes` (e.g. beta).
+    /// Parameter column (or dotted case setting, e.g. numerics.follow.films) of the rows of
+    /// `outcomes` (e.g. beta).
     #[arg(long)]
     pub rows: Option<String>,
-    /// Parameter column of the columns of `outcomes` (e.g. mesh).
+    /// Parameter column (or dotted case setting) of the columns of `outcomes` (e.g. mesh).
     #[arg(long)]
     pub cols: Option<String>,
     /// Output format.
@@ -69,21 +70,12 @@ pub struct QueryArgs {
     pub format: Format,
 }
 
-/// The parameter column an `outcomes` axis names (`--rows`, `--cols`).
-fn parameter(name: &Option<String>) -> Result<&'static str, String> {
+/// What an `outcomes` axis names (`--rows`, `--cols`): a parameter column or a case setting.
+fn outcome_axis(name: &Option<String>) -> Result<CaseAxis, String> {
     let name = name
         .as_deref()
         .ok_or("outcomes needs --rows COLUMN and --cols COLUMN, e.g. --rows beta --cols mesh")?;
-    PARAMETER_COLUMNS
-        .iter()
-        .find(|c| **c == name)
-        .copied()
-        .ok_or_else(|| {
-            format!(
-                "`{name}` is not a parameter column; use one of {}",
-                PARAMETER_COLUMNS.join(", ")
-            )
-        })
+    CaseAxis::parse(name)
 }
 
 /// Handler of `xpflow query`.
@@ -118,7 +110,7 @@ pub fn run_query_to(args: &QueryArgs, out: &mut dyn Write) -> anyhow::Result<Exi
                 ))
             }
         },
-        QueryWhat::Outcomes => match (parameter(&args.rows), parameter(&args.cols)) {
+        QueryWhat::Outcomes => match (outcome_axis(&args.rows), outcome_axis(&args.cols)) {
             (Ok(rows), Ok(cols)) => QueryKind::Outcomes { rows, cols },
             (Err(e), _) | (_, Err(e)) => return invalid(&e),
         },

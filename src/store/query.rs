@@ -14,6 +14,7 @@ mod filter;
 mod outcomes;
 use filter::where_clause;
 pub use filter::{Filter, FILTER_COLUMNS, PARAMETER_COLUMNS};
+pub use outcomes::CaseAxis;
 
 /// What to tabulate.
 #[derive(Debug, Clone, PartialEq)]
@@ -31,10 +32,10 @@ pub enum QueryKind {
     /// Every case's outcome (a string with its gap and film), per value of one parameter column
     /// (rows) × another (columns): e.g. β × mesh, how an outcome changes with the resolution.
     Outcomes {
-        /// Parameter column of the rows.
-        rows: &'static str,
-        /// Parameter column of the columns.
-        cols: &'static str,
+        /// What the rows show.
+        rows: CaseAxis,
+        /// What the columns show.
+        cols: CaseAxis,
     },
     /// One row per case with its status and outcome.
     Cases,
@@ -153,10 +154,11 @@ impl Store {
                 Ok(pivot("delta", "Wi=", cells, |k: Key| json!(k.0)))
             }
             QueryKind::Outcomes { rows, cols } => {
+                let (r, c) = (rows.sql(), cols.sql());
                 let sql = format!(
-                    "SELECT c.{rows}, c.{cols}, c.status, c.kind, c.mean_gap,
+                    "SELECT {r}, {c}, c.status, c.kind, c.mean_gap,
                             json_extract(c.final_json, '$.gap_elements'), c.owner, c.owner_pid
-                     FROM case_outcomes c{cond} ORDER BY c.{rows}, c.id"
+                     FROM case_outcomes c{cond} ORDER BY {r}, c.id"
                 );
                 let host = super::hostname();
                 let mut cases = self.rows(&sql, &args)?;
@@ -166,7 +168,7 @@ impl Store {
                     r[2] =
                         interrupted_or(&r[2], owner.as_ref().and_then(Value::as_str), pid, &host);
                 }
-                Ok(outcomes::pivot(rows, cols, cases))
+                Ok(outcomes::pivot(rows.name(), cols.name(), cases))
             }
             QueryKind::FinalRStar(by) => {
                 // (column, heading) of the parameters shown after the ordering one, which is

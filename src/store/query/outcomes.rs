@@ -1,6 +1,6 @@
 //! `xpflow query outcomes --rows COLUMN --cols COLUMN`: the outcome of every case pivoted on two
-//! parameter columns — e.g. β × mesh, the convergence of outcomes with the resolution (issue 25),
-//! or Wi × α of a study. A cell lists its cases' outcomes (a string with its mean gap and the
+//! parameter columns or case-file settings ([`CaseAxis`]) — e.g. β × mesh, the convergence of
+//! outcomes with the resolution (issue 25), Wi × α of a study, or β × `numerics.follow.films`. A cell lists its cases' outcomes (a string with its mean gap and the
 //! elements across its film, for the film is what a mesh may not resolve), or their status while
 //! they are not decided.
 
@@ -10,6 +10,59 @@ use std::collections::BTreeMap;
 use serde_json::{json, Value};
 
 use super::Table;
+
+/// What a pivot axis shows of each case: a parameter column (`beta`, `mesh`, …) or a setting of
+/// its case file by its dotted path (`numerics.follow.films`, read from the stored case; a case
+/// without it has no value there).
+#[derive(Debug, Clone, PartialEq)]
+pub enum CaseAxis {
+    /// A parameter column of `cases`.
+    Column(&'static str),
+    /// A dotted path into the case (lower-case letters, digits and `_` between the dots).
+    Setting(String),
+}
+
+impl CaseAxis {
+    /// The axis `name` names: a parameter column, else a dotted path of a setting.
+    ///
+    /// # Errors
+    /// A message naming the columns when `name` is neither.
+    pub fn parse(name: &str) -> Result<CaseAxis, String> {
+        if let Some(c) = super::PARAMETER_COLUMNS.iter().find(|c| **c == name) {
+            return Ok(CaseAxis::Column(c));
+        }
+        let segment = |s: &str| {
+            !s.is_empty()
+                && s.bytes()
+                    .all(|b| b.is_ascii_lowercase() || b.is_ascii_digit() || b == b'_')
+        };
+        if name.contains('.') && name.split('.').all(segment) {
+            return Ok(CaseAxis::Setting(name.to_string()));
+        }
+        Err(format!(
+            "`{name}` is neither a parameter column ({}) nor a dotted setting of the case file \
+             (e.g. numerics.follow.films)",
+            super::PARAMETER_COLUMNS.join(", ")
+        ))
+    }
+
+    /// Its heading.
+    pub fn name(&self) -> &str {
+        match self {
+            CaseAxis::Column(c) => c,
+            CaseAxis::Setting(p) => p,
+        }
+    }
+
+    /// Its SQL expression on `case_outcomes c` (a setting's path holds only the characters
+    /// [`parse`](Self::parse) allows, so it may be written into the statement).
+    pub(super) fn sql(&self) -> String {
+        match self {
+            CaseAxis::Column(c) => format!("c.{c}"),
+            CaseAxis::Setting(p) => format!("json_extract(c.params_json, '$.{p}')"),
+        }
+    }
+}
 
 /// One value of a pivot axis: a number (Wi, β, …) or a text (the mesh, `200x62`), ordered
 /// naturally — numbers by value, texts by the numbers in them (so `400x100` follows `300x78`),
