@@ -317,9 +317,9 @@ pub struct FollowMesh {
     /// 2.3 times the fixed mesh's; `crate::mesh::follow` has the trade-offs).
     #[serde(default = "default_follow_reach")]
     pub reach: f64,
-    /// Elements across each film between two particles (e.g. 4): the columns and rows are
-    /// also refined at every gap thinner than that many elements, in proportion to the film's
-    /// direction ([`crate::mesh::films`]; `xpflow validate film-polymer`: four hold the polymer's
+    /// Elements across each film between two particles, or a particle and a wall (e.g. 4): the
+    /// columns and rows are also refined at every gap thinner than that many elements, in
+    /// proportion to the film's direction ([`crate::mesh::films`]; `xpflow validate film-polymer`: four hold the polymer's
     /// push across the film to 2 % where the fixed mesh's half element is 25–40 % off). Confined
     /// shear only; not in the case id when left out.
     #[serde(default, skip_serializing_if = "Option::is_none")]

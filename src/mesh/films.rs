@@ -19,6 +19,8 @@
 //! (ratio − 1)·2t_k/h ≈ 2E extra elements whatever the gap, paid for by the taper. The ratio
 //! is continuous in the centres (1 when t_k = E·h), so the vertices move continuously as a film
 //! opens and closes. Films are refined one after another, each on the axis the previous left.
+//! A film between a particle and a channel's wall is refined in the rows alike (its zone clipped
+//! at the wall).
 
 use super::follow::{follow_axis_zones, Follow, FollowError};
 use super::Axis;
@@ -49,10 +51,29 @@ pub struct FilmOnAxis {
 }
 
 impl Films {
-    /// The films between the particles at `centres` (each pair once), as the two axes see them:
+    /// The films between the particles at `centres` (each pair once), and between each particle
+    /// and the walls at `walls = Some((y_bottom, y_top))`, as the two axes see them:
     /// `([x films], [y films])`. `period = Some(L)` takes the nearest image along x.
-    pub fn between(&self, centres: &[[f64; 2]], period: Option<f64>) -> [Vec<FilmOnAxis>; 2] {
+    pub fn between(
+        &self,
+        centres: &[[f64; 2]],
+        period: Option<f64>,
+        walls: Option<(f64, f64)>,
+    ) -> [Vec<FilmOnAxis>; 2] {
         let mut out = [Vec::new(), Vec::new()];
+        if let Some((bottom, top)) = walls {
+            for p in centres {
+                for (wall, side) in [(bottom, -1.0), (top, 1.0)] {
+                    let gap = (wall - p[1]) * side - self.radius;
+                    if gap > 0.0 {
+                        out[1].push(FilmOnAxis {
+                            at: wall - side * 0.5 * gap,
+                            thickness: gap,
+                        });
+                    }
+                }
+            }
+        }
         for (i, p) in centres.iter().enumerate() {
             for q in &centres[i + 1..] {
                 let mut d = [q[0] - p[0], q[1] - p[1]];
@@ -148,12 +169,12 @@ mod tests {
         let gap = 0.005;
         let centres = [[-0.1 - gap / 2.0, 0.0], [0.1 + gap / 2.0, 0.0]];
         let base = channel();
-        let [xs, _] = films(8.0).between(&centres, Some(4.0));
+        let [xs, _] = films(8.0).between(&centres, Some(4.0), None);
         let err = films(8.0).refine(&base, &xs, Some(4.0)).unwrap_err();
         assert!(matches!(err, FollowError::NoRoom { .. }), "{err}");
         for e in [2.0, 4.0] {
             let f = films(e);
-            let [xs, ys] = f.between(&centres, Some(4.0));
+            let [xs, ys] = f.between(&centres, Some(4.0), None);
             assert_eq!(xs.len(), 1);
             assert!((xs[0].thickness - gap).abs() < 1e-15 && ys.is_empty());
             let ax = f.refine(&base, &xs, Some(4.0)).expect("room");
@@ -199,14 +220,14 @@ mod tests {
     fn films_are_seen_by_their_normal_and_across_the_period() {
         let f = films(4.0);
         let d = (0.2 + 0.01) / 2f64.sqrt();
-        let [xs, ys] = f.between(&[[0.0, 0.0], [d, d]], None);
+        let [xs, ys] = f.between(&[[0.0, 0.0], [d, d]], None, None);
         let t = 0.01 * 2f64.sqrt();
         assert!((xs[0].thickness - t).abs() < 1e-12 && (ys[0].thickness - t).abs() < 1e-12);
         let ax = f.refine(&channel(), &xs, None).unwrap();
         let across = elements_between(&ax, 0.5 * d - 0.5 * t, 0.5 * d + 0.5 * t);
         assert!((across - 4.0).abs() < 1e-9, "{across}");
         // the midpoint −2.0025, i.e. 1.9975: the film's halves at both ends of the axis
-        let [xs, _] = f.between(&[[-1.9, 0.0], [1.895, 0.0]], Some(4.0));
+        let [xs, _] = f.between(&[[-1.9, 0.0], [1.895, 0.0]], Some(4.0), None);
         assert!((xs[0].thickness - 0.005).abs() < 1e-12, "{:?}", xs[0]);
         let ax = f.refine(&channel(), &xs, Some(4.0)).unwrap();
         let wrap = |x: f64| ax.vertices[0] + (x - ax.vertices[0]).rem_euclid(4.0);
@@ -216,7 +237,26 @@ mod tests {
             across += 200.0;
         }
         assert!((across - 4.0).abs() < 1e-9, "{across}");
-        let [xs, ys] = f.between(&[[0.0, 0.0], [0.15, 0.0]], None);
+        let [xs, ys] = f.between(&[[0.0, 0.0], [0.15, 0.0]], None, None);
         assert!(xs.is_empty() && ys.is_empty());
+    }
+
+    /// A particle 0.005 from the top wall of a channel (H = 1, 50 rows: h = a/5): the rows get
+    /// four elements in the film, which touches the wall (the zone is clipped there); the far
+    /// wall's film (0.795) is resolved already.
+    #[test]
+    fn a_film_to_a_wall_is_refined_in_the_rows() {
+        let f = films(4.0);
+        let y = 0.5 - 0.1 - 0.005;
+        let [xs, ys] = f.between(&[[0.3, y]], Some(4.0), Some((-0.5, 0.5)));
+        assert!(xs.is_empty() && ys.len() == 2, "{ys:?}");
+        let ay = f.refine(&Axis::uniform(-0.5, 0.5, 50), &ys, None).unwrap();
+        assert_eq!(ay.len(), 50);
+        let across = ay.index_coordinate(0.5) - ay.index_coordinate(0.495);
+        assert!((across - 4.0).abs() < 0.05, "{across}");
+        assert_eq!(
+            ay.vertices[..20],
+            Axis::uniform(-0.5, 0.5, 50).vertices[..20]
+        );
     }
 }

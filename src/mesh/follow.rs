@@ -43,8 +43,8 @@ pub struct FollowingMesh {
     pub x: Follow,
     /// Refinement of the rows (across the flow: y or r).
     pub y: Follow,
-    /// Refinement of both axes at the films between near particles, after the above
-    /// (rectangles only).
+    /// Refinement of both axes at the films between near particles and between a particle and
+    /// the bottom or top wall, after the above (rectangles only).
     pub films: Option<Films>,
 }
 
@@ -74,7 +74,9 @@ impl FollowingMesh {
             .map_err(|e| format!("across the flow: {e}"))?;
         let (ax, ay) = match (&self.films, base.shape) {
             (Some(films), Shape::Rectangle) => {
-                let [fx, fy] = films.between(centres, period);
+                // a rectangle's bottom and top are walls (films: confined shear)
+                let walls = (base.ay.vertices[0], base.ay.vertices[base.ay.len()]);
+                let [fx, fy] = films.between(centres, period, Some(walls));
                 let ax = films
                     .refine(&ax, &fx, period)
                     .map_err(|e| format!("at a film, along the flow: {e}"))?;

@@ -124,7 +124,11 @@ pub fn film_forces_refined(
         max_ratio: f64::INFINITY,
         reach: FILM_REACH,
     };
-    let [xs, _] = films.between(&[[-1.0 - gap / 2.0, 0.0], [1.0 + gap / 2.0, 0.0]], None);
+    let [xs, _] = films.between(
+        &[[-1.0 - gap / 2.0, 0.0], [1.0 + gap / 2.0, 0.0]],
+        None,
+        None,
+    );
     let ax = films.refine(&mesh.ax, &xs, None)?;
     let across = ax.vertices[ax.locate(0.0) + 1] - ax.vertices[ax.locate(0.0)];
     let mesh = mesh.with_axes(ax, mesh.ay.clone());
