@@ -9,6 +9,7 @@ use serde::Serialize;
 
 use crate::config::{
     CaseSpec, DieExit, Geometry, HistoryRemap, InterfaceRule, Method, StressCoupling, TimeStep,
+    FILM_MAX_RATIO, FILM_REACH,
 };
 use crate::observe::outcome::STEADY_OMEGA_RATE;
 use crate::particles::CONTACT_OVERLAP;
@@ -86,6 +87,21 @@ pub struct FollowSettings {
     pub core: f64,
     /// Half-width of the zone beyond which nothing moves, in radii.
     pub reach: f64,
+    /// The films' refinement: elements across each, its zone's half-width in radii and the
+    /// largest refinement (`None`: films not refined).
+    #[serde(skip_serializing_if = "Option::is_none")]
+    pub films: Option<FilmSettings>,
+}
+
+/// The refinement of the films between near particles (`numerics.follow.films`).
+#[derive(Debug, Clone, Copy, PartialEq, Serialize)]
+pub struct FilmSettings {
+    /// Elements asked across each film.
+    pub elements: f64,
+    /// Half-width of a film's zone, in radii.
+    pub reach: f64,
+    /// Largest refinement at a film.
+    pub max_ratio: f64,
 }
 
 /// The fluid.
@@ -291,6 +307,11 @@ impl Settings {
             ratio_y: f.ratio_y.unwrap_or(f.ratio),
             core: f.core,
             reach: f.reach,
+            films: f.films.map(|elements| FilmSettings {
+                elements,
+                reach: FILM_REACH,
+                max_ratio: FILM_MAX_RATIO,
+            }),
         });
         let coupling = match (polymer, params.coupling, params.coupled_g) {
             (false, _, _) => "none (Stokes flow)",
