@@ -40,6 +40,7 @@ SCRIPTS = [
     "mesh_convergence",
     "extrusion",
     "field_snapshots",
+    "film_zoom",
 ]
 
 

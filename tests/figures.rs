@@ -36,6 +36,7 @@ const EXPECTED_FIGURES: &[&str] = &[
     "regime_map",
     "mesh_convergence",
     "field_snapshots",
+    "film_zoom",
 ];
 /// Markdown tables (thesis Tables 5.2–5.4 style).
 const EXPECTED_TABLES: &[&str] = &["tables/string_formation.md", "tables/string_summary.md"];
@@ -530,6 +531,10 @@ fn figures_from_an_empty_database_say_what_is_missing() {
     assert!(
         log.contains("no field snapshots"),
         "the log says why the snapshot figure is skipped:\n{log}"
+    );
+    assert!(
+        !figs.join("film_zoom.png").exists() && log.contains("no case with field snapshots"),
+        "no film to zoom on, and the log says so:\n{log}"
     );
     assert!(
         log.contains("no Couette cases"),
