@@ -10,8 +10,8 @@
 //! A film between two particles of radius a with centres c₁, c₂ has thickness g = |c₂ − c₁| − 2a
 //! and unit normal n = (c₂ − c₁)/|c₂ − c₁|; along axis k its surfaces are t_k = g/|n_k| apart,
 //! and vertex lines h_k apart cross it t_k/h_k times. Each axis is refined at the film's midpoint
-//! by `ratio = E·h/t_k` (h the axis' element size there), when that exceeds 1 and capped at
-//! [`Films::max_ratio`]: then the film is crossed E·n_k² times by each axis' lines, E times in
+//! by `ratio = E·h/t_k` (h the axis' element size there), when that exceeds 1, capped at
+//! [`Films::max_ratio`] and by the room in the zone ([`ROOM`]): then the film is crossed E·n_k² times by each axis' lines, E times in
 //! all, whatever its direction (a film along x is left to the columns, one at 45° shared). The
 //! core (refined uniformly) has half-width t_k, at most half the reach: the film is at most
 //! twice as thick there (|s| ≤ √(a g) along it); outside it the size grows linearly
@@ -24,6 +24,12 @@
 
 use super::follow::{follow_axis_zones, Follow, FollowError};
 use super::Axis;
+
+/// Largest share of a film's zone the core may take, in elements (on a uniform axis: ratio ≤
+/// ROOM · reach/core): the rest keeps room for the tapers, so that a film on a coarse axis gets
+/// fewer elements than asked (ROOM·reach/h across) rather than none. At reach 1.5a that is 4.5
+/// elements at a/5, 7.2 at a/8.
+pub const ROOM: f64 = 0.6;
 
 /// How the films between near particles are refined.
 #[derive(Debug, Clone, Copy, PartialEq)]
@@ -98,10 +104,12 @@ impl Films {
         out
     }
 
-    /// `axis` refined at each of `films` (on a periodic axis, `period` its span).
+    /// `axis` refined at each of `films` (on a periodic axis, `period` its span). A film whose
+    /// refinement finds no room even so (zones crowded by other films or a wall) is left as it
+    /// is: its elements are fewer, the run goes on.
     ///
     /// # Errors
-    /// [`FollowError`] if a film's refinement has no room.
+    /// [`FollowError`] other than no room (round-off breaking the vertices' order).
     pub fn refine(
         &self,
         axis: &Axis,
@@ -113,7 +121,11 @@ impl Films {
             let Some(spec) = self.spec(&out, film, period) else {
                 continue;
             };
-            out = follow_axis_zones(&out, &[film.at], &spec, period, f64::INFINITY)?.axis;
+            match follow_axis_zones(&out, &[film.at], &spec, period, f64::INFINITY) {
+                Ok(refined) => out = refined.axis,
+                Err(FollowError::NoRoom { .. }) => {}
+                Err(e) => return Err(e),
+            }
         }
         Ok(out)
     }
@@ -128,10 +140,13 @@ impl Films {
         };
         let e = axis.locate(at);
         let h = axis.vertices[e + 1] - axis.vertices[e];
-        let ratio = (self.elements * h / film.thickness).min(self.max_ratio);
+        let core = film.thickness.min(0.5 * self.reach);
+        let ratio = (self.elements * h / film.thickness)
+            .min(self.max_ratio)
+            .min(ROOM * self.reach / core);
         (ratio > 1.0).then_some(Follow {
             ratio,
-            core: film.thickness.min(0.5 * self.reach),
+            core,
             reach: self.reach,
         })
     }
@@ -163,15 +178,17 @@ mod tests {
     /// Two particles side by side along x, the gap g = 0.005 = 0.05a: a quarter of an element of
     /// the channel. Refined for E = 2, 4 the film gets E elements across (the core holds exactly
     /// the ratio), the count is kept and the vertices beyond the reach are the channel's. E = 8
-    /// has no room: its core takes 16 elements, the zone (reach 1.5a) holds 15.
+    /// would take 16 elements in the core, of the 15 the zone (reach 1.5a) holds: it gets the
+    /// room's [`ROOM`] share, 4.5 across.
     #[test]
     fn a_film_along_the_axis_gets_the_elements_asked_for() {
         let gap = 0.005;
         let centres = [[-0.1 - gap / 2.0, 0.0], [0.1 + gap / 2.0, 0.0]];
         let base = channel();
         let [xs, _] = films(8.0).between(&centres, Some(4.0), None);
-        let err = films(8.0).refine(&base, &xs, Some(4.0)).unwrap_err();
-        assert!(matches!(err, FollowError::NoRoom { .. }), "{err}");
+        let ax = films(8.0).refine(&base, &xs, Some(4.0)).unwrap();
+        let across = elements_between(&ax, -gap / 2.0, gap / 2.0);
+        assert!((across - 4.5).abs() < 1e-9, "{across}");
         for e in [2.0, 4.0] {
             let f = films(e);
             let [xs, ys] = f.between(&centres, Some(4.0), None);
