@@ -88,7 +88,7 @@ impl Films {
                 }
                 let dist = d[0].hypot(d[1]);
                 let gap = dist - 2.0 * self.radius;
-                if !(gap > 0.0) {
+                if gap.is_nan() || gap <= 0.0 {
                     continue; // overlapping (or coincident): no film to resolve
                 }
                 for (k, films) in out.iter_mut().enumerate() {
