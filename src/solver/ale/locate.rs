@@ -85,10 +85,18 @@ pub(super) fn pre_image(
     } else {
         locate([x[0] - dx[0], x[1] - dx[1]])
     };
+    // on a graded mesh x's neighbours may be much smaller than its element (a film's columns
+    // next to the taper): a shift "near" for x's element can then cross several of them, so
+    // x − d(x) is searched around last
+    let late = || near.then(|| locate([x[0] - dx[0], x[1] - dx[1]])).flatten();
     let (nx, ny) = mesh.dims();
     let mut best: Option<(f64, usize, [f64; 2])> = None;
-    let mut tried = Vec::with_capacity(18);
-    for (ec, xic) in guess.into_iter().chain(std::iter::once((e0, xi0))) {
+    let mut tried = Vec::with_capacity(27);
+    let candidates = guess
+        .into_iter()
+        .chain(std::iter::once((e0, xi0)))
+        .chain(std::iter::once_with(late).flatten());
+    for (ec, xic) in candidates {
         let (exc, eyc) = ((ec % nx) as isize, (ec / nx) as isize);
         // the centre element first (from the located ξ), then its neighbours
         for (dx, dy) in std::iter::once((0, 0)).chain(
@@ -215,4 +223,30 @@ fn newton(
         (r, jac)
     };
     newton_inverse(residual, start, &NEWTON).ok()
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+    use crate::mesh::Axis;
+
+    /// A film's thin columns next to a wide element (a graded axis: 1, 0.001 ×3, 0.997, 1): a
+    /// point of the wide element near the thin ones, displaced by a uniform 0.0095 — a small
+    /// shift for its element, but its pre-image lies three thin columns to the left, beyond the
+    /// element's neighbours. It is found around x − d(x).
+    #[test]
+    fn a_pre_image_beyond_thin_neighbours_is_found() {
+        let ax = Axis {
+            vertices: vec![0.0, 1.0, 1.001, 1.002, 1.003, 2.0, 3.0],
+        };
+        let mesh = Mesh::rectangle(ax, Axis::uniform(0.0, 1.0, 2), false);
+        let d = vec![[0.0095, 0.0]; mesh.n_vertices()];
+        let x = [1.01, 0.3];
+        let (e, _, p) = pre_image(&mesh, &d, x, None, None).expect("found");
+        assert_eq!(e % 6, 1, "the pre-image's column");
+        assert!(
+            (p[0] - 1.0005).abs() < 1e-12 && (p[1] - 0.3).abs() < 1e-12,
+            "{p:?}"
+        );
+    }
 }
