@@ -324,6 +324,11 @@ pub struct FollowMesh {
     /// shear only; not in the case id when left out.
     #[serde(default, skip_serializing_if = "Option::is_none")]
     pub films: Option<f64>,
+    /// Half-width of a film's zone, in radii (default [`crate::config::FILM_REACH`]): the
+    /// count the film's core takes comes from the columns (rows) within it, none of them more
+    /// than [`crate::config::FILM_COARSEST`] times coarser. Not in the case id when left out.
+    #[serde(default, skip_serializing_if = "Option::is_none")]
+    pub film_reach: Option<f64>,
 }
 
 impl FollowMesh {

@@ -9,10 +9,14 @@ use super::case::{CaseSpec, FrameChoice, Geometry, Layout, Model, DEFAULT_EXTRUS
 use crate::geometry::{layout, Extrusion};
 use crate::mesh::{Axis, Films, FollowingMesh, Mesh, Shape};
 
-/// Reach of the film refinement (`numerics.follow.films`), in radii: the zone of a film between
-/// neighbours of a string (centres ≈ 2a apart) stops short of the next film, and holds 12
-/// elements each side at a/8 (the core of four elements across takes about eight).
-pub const FILM_REACH: f64 = 1.5;
+/// Reach of the film refinement (`numerics.follow.films`), in radii, by default
+/// (`numerics.follow.film_reach`): the zone holds 32 elements each side at a/8, so that the
+/// core's ≈ 2E (E = 8: 16) come from tapers no more than [`FILM_COARSEST`] times coarser.
+/// Measured: with 1.5 radii and no cap, E = 8 coarsened the particles' far sides to ≈ 0.3a and
+/// turned Table 5.2's Wi = 2 pair (a string at E = 2 and 4) into one that separates.
+pub const FILM_REACH: f64 = 4.0;
+/// Largest element in a film's zone relative to the mesh's own there (`numerics.follow.films`).
+pub const FILM_COARSEST: f64 = 1.5;
 /// Largest refinement at a film (`numerics.follow.films`): a/8 → a/256, four elements across a
 /// film of 0.016a; thinner films (near contact) get fewer.
 pub const FILM_MAX_RATIO: f64 = 32.0;
@@ -137,7 +141,8 @@ impl CaseSpec {
             radius: a,
             elements,
             max_ratio: FILM_MAX_RATIO,
-            reach: FILM_REACH * a,
+            reach: f.film_reach.unwrap_or(FILM_REACH) * a,
+            coarsest: FILM_COARSEST,
         });
         Some(FollowingMesh { base, x, y, films })
     }

@@ -95,6 +95,12 @@ impl CaseSpec {
                         format!("elements across a film must be ≥ 1 (got {e})"),
                     ));
                 }
+                if let Some(r) = f.film_reach.filter(|r| !r.is_finite() || *r <= 0.0) {
+                    return Err(SpecError::new(
+                        "numerics.follow.film_reach",
+                        format!("a film's zone must be a positive number of radii (got {r})"),
+                    ));
+                }
             }
             if !(f.core > 0.0 && f.reach > f.core && f.reach.is_finite()) {
                 return Err(SpecError::new(

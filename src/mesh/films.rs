@@ -11,7 +11,8 @@
 //! and unit normal n = (c₂ − c₁)/|c₂ − c₁|; along axis k its surfaces are t_k = g/|n_k| apart,
 //! and vertex lines h_k apart cross it t_k/h_k times. Each axis is refined at the film's midpoint
 //! by `ratio = E·h/t_k` (h the axis' element size there), when that exceeds 1, capped at
-//! [`Films::max_ratio`] and by the room in the zone ([`ROOM`]): then the film is crossed E·n_k² times by each axis' lines, E times in
+//! [`Films::max_ratio`] and by the room in the zone ([`ROOM`], with the zone's elements at most
+//! [`Films::coarsest`] times the axis' own): then the film is crossed E·n_k² times by each axis' lines, E times in
 //! all, whatever its direction (a film along x is left to the columns, one at 45° shared). The
 //! core (refined uniformly) has half-width t_k, at most half the reach: the film is at most
 //! twice as thick there (|s| ≤ √(a g) along it); outside it the size grows linearly
@@ -25,10 +26,11 @@
 use super::follow::{follow_axis_zones, Follow, FollowError};
 use super::Axis;
 
-/// Largest share of a film's zone the core may take, in elements (on a uniform axis: ratio ≤
-/// ROOM · reach/core): the rest keeps room for the tapers, so that a film on a coarse axis gets
-/// fewer elements than asked (ROOM·reach/h across) rather than none. At reach 1.5a that is 4.5
-/// elements at a/5, 7.2 at a/8.
+/// Share of the room in a film's zone the core may take: on a uniform axis, with the tapers'
+/// elements at most `coarsest` times the axis' own, the core could take up to
+/// (reach/core)(1 − 1/coarsest) + 1/coarsest times its elements; it takes at most ROOM of that
+/// (the tapers rise linearly to the cap), so that a film on a coarse axis gets fewer elements
+/// than asked rather than none.
 pub const ROOM: f64 = 0.6;
 
 /// How the films between near particles are refined.
@@ -42,8 +44,12 @@ pub struct Films {
     /// thinner than `elements·h/max_ratio` get fewer elements (near contact).
     pub max_ratio: f64,
     /// Half-width of the zone around a film's midpoint beyond which no vertex moves (> the core,
-    /// e.g. one radius).
+    /// e.g. four radii).
     pub reach: f64,
+    /// Largest element in the zone relative to the axis' own there (≥ 1): the count the core
+    /// takes is paid for by the tapers, which would otherwise coarsen the particles' own
+    /// surroundings (e.g. 1.5; infinite: no cap).
+    pub coarsest: f64,
 }
 
 /// One film as one axis sees it: where its midpoint lies, and its thickness along the axis
@@ -121,13 +127,20 @@ impl Films {
             let Some(spec) = self.spec(&out, film, period) else {
                 continue;
             };
-            match follow_axis_zones(&out, &[film.at], &spec, period, f64::INFINITY) {
+            match follow_axis_zones(&out, &[film.at], &spec, period, self.coarsest) {
                 Ok(refined) => out = refined.axis,
                 Err(FollowError::NoRoom { .. }) => {}
                 Err(e) => return Err(e),
             }
         }
         Ok(out)
+    }
+
+    /// The largest refinement a core of half-width `core` has room for on a uniform axis (see
+    /// [`ROOM`]).
+    fn room(&self, core: f64) -> f64 {
+        let c = self.coarsest.max(1.0);
+        self.reach / core * (1.0 - 1.0 / c) + 1.0 / c
     }
 
     /// The refinement of `axis` at `film`, `None` if it already has the elements asked for.
@@ -143,7 +156,7 @@ impl Films {
         let core = film.thickness.min(0.5 * self.reach);
         let ratio = (self.elements * h / film.thickness)
             .min(self.max_ratio)
-            .min(ROOM * self.reach / core);
+            .min(ROOM * self.room(core));
         (ratio > 1.0).then_some(Follow {
             ratio,
             core,
@@ -167,6 +180,7 @@ mod tests {
             elements,
             max_ratio: 32.0,
             reach: 0.15,
+            coarsest: f64::INFINITY,
         }
     }
 

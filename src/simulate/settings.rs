@@ -9,7 +9,7 @@ use serde::Serialize;
 
 use crate::config::{
     CaseSpec, DieExit, Geometry, HistoryRemap, InterfaceRule, Method, StressCoupling, TimeStep,
-    FILM_MAX_RATIO, FILM_REACH,
+    FILM_COARSEST, FILM_MAX_RATIO, FILM_REACH,
 };
 use crate::observe::outcome::STEADY_OMEGA_RATE;
 use crate::particles::CONTACT_OVERLAP;
@@ -102,6 +102,8 @@ pub struct FilmSettings {
     pub reach: f64,
     /// Largest refinement at a film.
     pub max_ratio: f64,
+    /// Largest element in a film's zone relative to the mesh's own.
+    pub coarsest: f64,
 }
 
 /// The fluid.
@@ -309,8 +311,9 @@ impl Settings {
             reach: f.reach,
             films: f.films.map(|elements| FilmSettings {
                 elements,
-                reach: FILM_REACH,
+                reach: f.film_reach.unwrap_or(FILM_REACH),
                 max_ratio: FILM_MAX_RATIO,
+                coarsest: FILM_COARSEST,
             }),
         });
         let coupling = match (polymer, params.coupling, params.coupled_g) {

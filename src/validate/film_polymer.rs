@@ -16,6 +16,7 @@
 //! cylinders and the film, the gap's midpoint mid-element, box ±12a with no-slip walls), Δt =
 //! [`DT`] to t = [`T_END`] = 10λ.
 
+use crate::config::{FILM_COARSEST, FILM_REACH};
 use crate::mesh::{Films, Mesh, Side};
 use crate::solver::cutcells::compute_cuts;
 use crate::solver::viscoelastic::{ViscoelasticFlow, ViscoelasticParams};
@@ -106,7 +107,7 @@ pub fn film_forces(
 
 /// [`film_forces`] on the mesh of element size `base` in both directions whose columns are
 /// refined at the film by [`Films`] for `elements` across it (the mesh a following mesh with
-/// `films` gives a string: rows and the rest of the columns untouched; reach 1.5a).
+/// `films` gives a string, with its reach and cap: rows and the rest of the columns untouched).
 ///
 /// # Errors
 /// If the refinement has no room, or the cut cells or a step fail.
@@ -123,6 +124,7 @@ pub fn film_forces_refined(
         elements,
         max_ratio: f64::INFINITY,
         reach: FILM_REACH,
+        coarsest: FILM_COARSEST,
     };
     let [xs, _] = films.between(
         &[[-1.0 - gap / 2.0, 0.0], [1.0 + gap / 2.0, 0.0]],
@@ -140,8 +142,6 @@ pub const FILM_ELEMENTS: [f64; 3] = [2.0, 4.0, 8.0];
 /// Element size (in radii) of the mesh the film refinement is applied to: a/10, what holds the
 /// film's push within 2 % along it (the anisotropic rows).
 pub const FILM_BASE: f64 = 0.1;
-/// Reach of the film refinement of [`film_forces_refined`], in radii.
-pub const FILM_REACH: f64 = 1.5;
 
 /// The pair at `gap` on `mesh` (element sizes `h` across the film and `along` it), run to its
 /// steady state.
