@@ -12,14 +12,15 @@
 //! and vertex lines h_k apart cross it t_k/h_k times. Each axis is refined at the film's midpoint
 //! by `ratio = E·h/t_k` (h the axis' element size there), when that exceeds 1, capped at
 //! [`Films::max_ratio`] and by the room in the zone ([`ROOM`], with the zone's elements at most
-//! [`Films::coarsest`] times the axis' own): then the film is crossed E·n_k² times by each axis' lines, E times in
-//! all, whatever its direction (a film along x is left to the columns, one at 45° shared). The
+//! [`Films::coarsest`] times the axis' own): then the film is crossed E·n_k² times by each
+//! axis' lines, E times in all, whatever its direction (a film along x is left to the columns, one at 45° shared). The
 //! core (refined uniformly) has half-width t_k, at most half the reach: the film is at most
 //! twice as thick there (|s| ≤ √(a g) along it); outside it the size grows linearly
 //! ([`equidistribute`](super::equidistribute)) up to [`Films::reach`]. The core takes
 //! (ratio − 1)·2t_k/h ≈ 2E extra elements whatever the gap, paid for by the taper. The ratio
 //! is continuous in the centres (1 when t_k = E·h), so the vertices move continuously as a film
-//! opens and closes. Films are refined one after another, each on the axis the previous left.
+//! opens and closes. Films are refined one after another, each on the axis the previous left,
+//! and again where a later one's taper coarsened an earlier one ([`Films::refine`]).
 //! A film between a particle and a channel's wall is refined in the rows alike (its zone clipped
 //! at the wall).
 
@@ -32,6 +33,12 @@ use super::Axis;
 /// (the tapers rise linearly to the cap), so that a film on a coarse axis gets fewer elements
 /// than asked rather than none.
 pub const ROOM: f64 = 0.6;
+
+/// Passes over the films of an axis at most ([`Films::refine`]).
+pub const PASSES: usize = 3;
+/// A film is refined again on a later pass when it is short of its elements by more than this
+/// factor (5 %).
+pub const PASS_TOL: f64 = 1.05;
 
 /// How the films between near particles are refined.
 #[derive(Debug, Clone, Copy, PartialEq)]
@@ -110,9 +117,12 @@ impl Films {
         out
     }
 
-    /// `axis` refined at each of `films` (on a periodic axis, `period` its span). A film whose
-    /// refinement finds no room even so (zones crowded by other films or a wall) is left as it
-    /// is: its elements are fewer, the run goes on.
+    /// `axis` refined at each of `films` (on a periodic axis, `period` its span). Films are
+    /// refined one after another; a later film's taper may coarsen an earlier film's core (by
+    /// up to [`Films::coarsest`]: three particles in a string have films ≈ 2a apart), so the
+    /// films short of their elements by more than [`PASS_TOL`] are refined again, up to
+    /// [`PASSES`] passes in all. A film whose refinement finds no room (zones crowded by other
+    /// films or a wall) is left as it is: its elements are fewer, the run goes on.
     ///
     /// # Errors
     /// [`FollowError`] other than no room (round-off breaking the vertices' order).
@@ -123,14 +133,24 @@ impl Films {
         period: Option<f64>,
     ) -> Result<Axis, FollowError> {
         let mut out = axis.clone();
-        for film in films {
-            let Some(spec) = self.spec(&out, film, period) else {
-                continue;
-            };
-            match follow_axis_zones(&out, &[film.at], &spec, period, self.coarsest) {
-                Ok(refined) => out = refined.axis,
-                Err(FollowError::NoRoom { .. }) => {}
-                Err(e) => return Err(e),
+        for pass in 0..PASSES {
+            let threshold = if pass == 0 { 1.0 } else { PASS_TOL };
+            let mut changed = false;
+            for film in films {
+                let Some(spec) = self.spec_on(axis, &out, film, period, threshold) else {
+                    continue;
+                };
+                match follow_axis_zones(&out, &[film.at], &spec, period, self.coarsest) {
+                    Ok(refined) => {
+                        out = refined.axis;
+                        changed = true;
+                    }
+                    Err(FollowError::NoRoom { .. }) => {}
+                    Err(e) => return Err(e),
+                }
+            }
+            if !changed {
+                break;
             }
         }
         Ok(out)
@@ -145,19 +165,35 @@ impl Films {
 
     /// The refinement of `axis` at `film`, `None` if it already has the elements asked for.
     pub fn spec(&self, axis: &Axis, film: &FilmOnAxis, period: Option<f64>) -> Option<Follow> {
-        let (lo, hi) = (axis.vertices[0], axis.vertices[axis.len()]);
+        self.spec_on(axis, axis, film, period, 1.0)
+    }
+
+    /// The refinement of `now` (refined from `base`) at `film` if it is more than `threshold`,
+    /// capped at [`Films::max_ratio`] of `base`'s element there.
+    fn spec_on(
+        &self,
+        base: &Axis,
+        now: &Axis,
+        film: &FilmOnAxis,
+        period: Option<f64>,
+        threshold: f64,
+    ) -> Option<Follow> {
+        let (lo, hi) = (now.vertices[0], now.vertices[now.len()]);
         let at = match period {
             Some(l) => lo + (film.at - lo).rem_euclid(l),
             None if film.at <= lo || film.at >= hi => return None,
             None => film.at,
         };
-        let e = axis.locate(at);
-        let h = axis.vertices[e + 1] - axis.vertices[e];
+        let size = |a: &Axis| {
+            let e = a.locate(at);
+            a.vertices[e + 1] - a.vertices[e]
+        };
+        let h = size(now);
         let core = film.thickness.min(0.5 * self.reach);
         let ratio = (self.elements * h / film.thickness)
-            .min(self.max_ratio)
+            .min(self.max_ratio * h / size(base))
             .min(ROOM * self.room(core));
-        (ratio > 1.0).then_some(Follow {
+        (ratio > threshold).then_some(Follow {
             ratio,
             core,
             reach: self.reach,
@@ -270,6 +306,41 @@ mod tests {
         assert!((across - 4.0).abs() < 1e-9, "{across}");
         let [xs, ys] = f.between(&[[0.0, 0.0], [0.15, 0.0]], None, None);
         assert!(xs.is_empty() && ys.is_empty());
+    }
+
+    /// Three particles of a string 0.05a apart on Table 5.2's columns at the centre (a/8),
+    /// zones of 4a capped at 1.5: the films 2.05a apart share their zones, and each still gets
+    /// its four elements (the second's taper coarsened the first's by ≈ 1.3 before the passes).
+    #[test]
+    fn the_films_of_a_string_each_get_their_elements() {
+        let f = Films {
+            reach: 0.4,
+            coarsest: 1.5,
+            ..films(4.0)
+        };
+        let base = Axis::uniform(-2.0, 2.0, 320);
+        let s = 0.205;
+        let [xs, _] = f.between(&[[-s, 0.0], [0.0, 0.0], [s, 0.0]], Some(4.0), None);
+        assert_eq!(
+            xs.len(),
+            3,
+            "two films and the pair across the period: {xs:?}"
+        );
+        let ax = f.refine(&base, &xs, Some(4.0)).unwrap();
+        for m in [-0.1025, 0.1025] {
+            let across = elements_between(&ax, m - 0.0025, m + 0.0025);
+            assert!((across - 4.0).abs() < 0.2, "film at {m}: {across}");
+        }
+        let mut single = base.clone();
+        for film in &xs {
+            if let Some(spec) = f.spec(&single, film, Some(4.0)) {
+                single = follow_axis_zones(&single, &[film.at], &spec, Some(4.0), 1.5)
+                    .unwrap()
+                    .axis;
+            }
+        }
+        let first = elements_between(&single, -0.1025 - 0.0025, -0.1025 + 0.0025);
+        assert!(first < 3.8, "one pass leaves the first film short: {first}");
     }
 
     /// A particle 0.005 from the top wall of a channel (H = 1, 50 rows: h = a/5): the rows get
