@@ -70,7 +70,8 @@ def read_snapshot(h5, group: str):
     return coords, quads, field, values, level, t
 
 
-def draw_case(f: fl.Figures, c: fl.Case, path: str, page: str) -> bool:
+def open_snapshots(f: fl.Figures, path: str, name: str):
+    """The snapshot file at `path` and its step groups in order, or None (logged under `name`)."""
     import h5py
 
     # a running sweep holds the file open for writing: read without HDF5's file lock (figures of
@@ -78,10 +79,17 @@ def draw_case(f: fl.Figures, c: fl.Case, path: str, page: str) -> bool:
     try:
         h5 = h5py.File(path, "r", locking=False)
     except OSError as e:
-        f.log(f"{NAME}: {path} cannot be read now ({e}); skipped")
+        f.log(f"{name}: {path} cannot be read now ({e}); skipped")
+        return None
+    return h5, sorted(k for k in h5.keys() if k.startswith("step_"))
+
+
+def draw_case(f: fl.Figures, c: fl.Case, path: str, page: str) -> bool:
+    opened = open_snapshots(f, path, NAME)
+    if opened is None:
         return False
+    h5, groups = opened
     with h5:
-        groups = sorted(k for k in h5.keys() if k.startswith("step_"))
         if not groups:
             f.log(f"{NAME}: {path} has no step_* groups")
             return False

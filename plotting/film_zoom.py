@@ -21,7 +21,7 @@ from matplotlib.collections import PolyCollection
 from matplotlib.patches import Circle
 
 import figlib as fl
-from field_snapshots import particle_positions, read_snapshot, resolve
+from field_snapshots import open_snapshots, particle_positions, read_snapshot, resolve
 
 NAME = "film_zoom"
 #: Cases drawn (one panel each); the rest are listed in the log.
@@ -46,16 +46,12 @@ def narrowest_pair(points: list[tuple[float, float]], a: float, period: float | 
     return best
 
 
-def last_snapshot(f: fl.Figures, c: fl.Case, path: str):
-    import h5py
-
-    try:
-        h5 = h5py.File(path, "r", locking=False)
-    except OSError as e:
-        f.log(f"{NAME}: {path} cannot be read now ({e}); skipped")
+def last_snapshot(f: fl.Figures, path: str):
+    opened = open_snapshots(f, path, NAME)
+    if opened is None:
         return None
+    h5, groups = opened
     with h5:
-        groups = sorted(k for k in h5.keys() if k.startswith("step_"))
         return read_snapshot(h5, groups[-1]) if groups else None
 
 
@@ -71,7 +67,7 @@ def main(f: fl.Figures) -> None:
             f.log(f"{NAME}: only the first {MAX_CASES} cases with snapshots are drawn")
             break
         path = resolve(f, c, recorded)
-        snap = last_snapshot(f, c, path) if path else None
+        snap = last_snapshot(f, path) if path else None
         if snap is None:
             f.log(f"{NAME}: no readable snapshot of case {c.hash}; skipped")
             continue
