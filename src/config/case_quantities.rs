@@ -21,6 +21,19 @@ pub const FILM_COARSEST: f64 = 1.5;
 /// film of 0.016a; thinner films (near contact) get fewer.
 pub const FILM_MAX_RATIO: f64 = 32.0;
 
+/// The film refinement of a case (`numerics.follow.films = elements`, `film_reach` in radii or
+/// [`FILM_REACH`]) for particles of radius `a`: what the following mesh, the resolved settings
+/// and `validate film-polymer` all take.
+pub fn film_refinement(a: f64, elements: f64, film_reach: Option<f64>) -> Films {
+    Films {
+        radius: a,
+        elements,
+        max_ratio: FILM_MAX_RATIO,
+        reach: film_reach.unwrap_or(FILM_REACH) * a,
+        coarsest: FILM_COARSEST,
+    }
+}
+
 /// The columns of a case's parameters in the results database (`cases`), in the order of
 /// [`CaseSpec::parameter_columns`]: what `xpflow query --where` and `xpflow sweep --where` select by.
 pub const PARAMETER_COLUMNS: [&str; 15] = [
@@ -137,13 +150,9 @@ impl CaseSpec {
             Shape::Rectangle => None,
         };
         let [x, y] = f.axes(a, arc);
-        let films = f.films.map(|elements| Films {
-            radius: a,
-            elements,
-            max_ratio: FILM_MAX_RATIO,
-            reach: f.film_reach.unwrap_or(FILM_REACH) * a,
-            coarsest: FILM_COARSEST,
-        });
+        let films = f
+            .films
+            .map(|elements| film_refinement(a, elements, f.film_reach));
         Some(FollowingMesh { base, x, y, films })
     }
 

@@ -29,7 +29,9 @@ pub use case::{
     Layout, Model, Numerics, Output, Particles, Stop, StressCoupling, DEFAULT_EXTRUSION_HEIGHT,
     DEFAULT_QUADTREE_LEVEL,
 };
-pub use case_quantities::{FILM_COARSEST, FILM_MAX_RATIO, FILM_REACH, PARAMETER_COLUMNS};
+pub use case_quantities::{
+    film_refinement, FILM_COARSEST, FILM_MAX_RATIO, FILM_REACH, PARAMETER_COLUMNS,
+};
 pub use error::{ConfigError, SpecError};
 pub use limits::{
     COUPLED_G_STEP_COST, MAX_ELEMENTS_PER_STEP, MAX_MESH_ELEMENTS, MAX_RADII_PER_STEP,

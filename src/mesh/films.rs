@@ -163,11 +163,6 @@ impl Films {
         self.reach / core * (1.0 - 1.0 / c) + 1.0 / c
     }
 
-    /// The refinement of `axis` at `film`, `None` if it already has the elements asked for.
-    pub fn spec(&self, axis: &Axis, film: &FilmOnAxis, period: Option<f64>) -> Option<Follow> {
-        self.spec_on(axis, axis, film, period, 1.0)
-    }
-
     /// The refinement of `now` (refined from `base`) at `film` if it is more than `threshold`,
     /// capped at [`Films::max_ratio`] of `base`'s element there.
     fn spec_on(
@@ -269,7 +264,9 @@ mod tests {
             at: 0.003,
             thickness: g,
         };
-        assert!(f.spec(&base, &film(0.0801), Some(4.0)).is_none());
+        assert!(f
+            .spec_on(&base, &base, &film(0.0801), Some(4.0), 1.0)
+            .is_none());
         let near = f.refine(&base, &[film(0.07999)], Some(4.0)).unwrap();
         let shift = near
             .vertices
@@ -333,7 +330,7 @@ mod tests {
         }
         let mut single = base.clone();
         for film in &xs {
-            if let Some(spec) = f.spec(&single, film, Some(4.0)) {
+            if let Some(spec) = f.spec_on(&single, &single, film, Some(4.0), 1.0) {
                 single = follow_axis_zones(&single, &[film.at], &spec, Some(4.0), 1.5)
                     .unwrap()
                     .axis;

@@ -8,8 +8,8 @@ use crate::fem::substructure::Factorization;
 use serde::Serialize;
 
 use crate::config::{
-    CaseSpec, DieExit, Geometry, HistoryRemap, InterfaceRule, Method, StressCoupling, TimeStep,
-    FILM_COARSEST, FILM_MAX_RATIO, FILM_REACH,
+    film_refinement, CaseSpec, DieExit, Geometry, HistoryRemap, InterfaceRule, Method,
+    StressCoupling, TimeStep,
 };
 use crate::observe::outcome::STEADY_OMEGA_RATE;
 use crate::particles::CONTACT_OVERLAP;
@@ -309,11 +309,15 @@ impl Settings {
             ratio_y: f.ratio_y.unwrap_or(f.ratio),
             core: f.core,
             reach: f.reach,
-            films: f.films.map(|elements| FilmSettings {
-                elements,
-                reach: f.film_reach.unwrap_or(FILM_REACH),
-                max_ratio: FILM_MAX_RATIO,
-                coarsest: FILM_COARSEST,
+            // in radii: the refinement for a = 1
+            films: f.films.map(|elements| {
+                let films = film_refinement(1.0, elements, f.film_reach);
+                FilmSettings {
+                    elements,
+                    reach: films.reach,
+                    max_ratio: films.max_ratio,
+                    coarsest: films.coarsest,
+                }
             }),
         });
         let coupling = match (polymer, params.coupling, params.coupled_g) {
